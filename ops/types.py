@@ -147,3 +147,23 @@ class BlendPath:
     cost: float
     step_costs: np.ndarray  # (T - 1,) float64 cost of each transition
     abrupt: np.ndarray  # (T - 1,) bool transitions far above the median cost
+
+
+@dataclass
+class BlendPaths:
+    """The optimal and the diagonal path through one shot's image matrix (§5.2)."""
+
+    times: np.ndarray  # (T,) float64
+    alphas: np.ndarray  # (A,) float64
+    optimal: BlendPath
+    diagonal: BlendPath
+
+
+@dataclass
+class OutputFrames:
+    """The in-between animation: one RGBA frame per output time."""
+
+    times: np.ndarray  # (T,) float64
+    alphas: np.ndarray  # (T,) float64 alpha taken at each time
+    frames: np.ndarray  # (T, H, W, 4) float32 straight alpha
+    blend: str  # "optimal" | "diagonal"

@@ -1,0 +1,97 @@
+"""Both lanes meet: RIFE image matrix -> quality metrics -> optimal path -> output frames (§5.2)."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ops import preview
+from ops.image_matrix import build_image_matrix
+from ops.output import matrix_contact_sheet
+from ops.path import diagonal_path, optimal_path
+from ops.quality import coverage_weight, inpainted_share, interpolation_quality, quality_table, texture_quality
+from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
+
+from .stage import StageEnv, StageResult, stage_asset
+
+
+def _rife_matrix(env: StageEnv) -> StageResult:
+    """I(alpha, t): RIFE blends of the two deformed sequences on a dyadic alpha grid, and the flow at alpha 1/2."""
+    seq0: DeformedSequence = env.read("key0/deformed_frames")
+    seq1: DeformedSequence = env.read("key1/deformed_frames")
+    rife = env.resource("rife").load()
+    matrix = build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=env.settings.alpha_depth,
+                                batch=env.resource("rife").batch)
+    mid = matrix.frames[:, len(matrix.alphas) // 2]
+    meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(len(matrix.times) * (len(matrix.alphas) - 2)),
+            "device": env.resource("rife").device}
+    return StageResult(matrix, meta, preview.frame_strip(mid))
+
+
+def _quality(env: StageEnv) -> StageResult:
+    """Texture quality q(t, alpha) (visible inpainted share) and interpolation quality Q(t) (flow divergence)."""
+    matrix: ImageMatrix = env.read("rife_matrix")
+    seq0: DeformedSequence = env.read("key0/deformed_frames")
+    seq1: DeformedSequence = env.read("key1/deformed_frames")
+    share0 = inpainted_share(seq0.inpainted, seq0.images[..., 3])
+    share1 = inpainted_share(seq1.inpainted, seq1.images[..., 3])
+    q = texture_quality(share0, share1, matrix.alphas)
+    Q = interpolation_quality(matrix.flows, coverage_weight(seq0.images[..., 3], seq1.images[..., 3]))
+    table = quality_table(matrix.times, matrix.alphas, q, Q)
+    meta = {"Q_max": float(Q.max()), "Q_mean": float(Q.mean()), "q_max": float(q.max()),
+            "inpainted_share_key0": [round(float(s), 4) for s in share0],
+            "inpainted_share_key1": [round(float(s), 4) for s in share1]}
+    return StageResult(table, meta, None)
+
+
+def _table_arrays(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(times (T,), alphas (A,), q (T, A), Q (T,)) from the long quality table."""
+    times = np.sort(table["t"].unique())
+    alphas = np.sort(table["alpha"].unique())
+    wide = table.pivot(index="t", columns="alpha", values="q").loc[times, alphas]
+    Q = table.groupby("t")["Q"].first().loc[times].to_numpy()
+    return times, alphas, wide.to_numpy(), Q
+
+
+def _paths(env: StageEnv) -> StageResult:
+    """Shortest path through the matrix (Dijkstra) and the diagonal path alpha = t, with their costs."""
+    times, alphas, q, Q = _table_arrays(env.read("quality_metrics"))
+    best = optimal_path(q, Q, alphas, epsilon=env.settings.epsilon)
+    diag = diagonal_path(q, Q, alphas, times)
+    paths = BlendPaths(times, alphas, best, diag)
+    meta = {"cost_optimal": float(best.cost), "cost_diagonal": float(diag.cost),
+            "alpha_optimal": [float(alphas[i]) for i in best.alpha_index],
+            "abrupt_transitions": [int(i) for i in np.nonzero(best.abrupt)[0]]}
+    return StageResult(paths, meta, None)
+
+
+def _check_path(paths: BlendPaths, env: StageEnv) -> tuple[bool, str]:
+    idx = paths.optimal.alpha_index
+    ok = (len(idx) == len(paths.times) and paths.alphas[idx[0]] == 0.0 and paths.alphas[idx[-1]] == 1.0
+          and bool(np.all(np.diff(paths.times) > 0)))
+    return ok, f"alpha along the path: {[float(paths.alphas[i]) for i in idx]}"
+
+
+def _frames(env: StageEnv) -> StageResult:
+    """The output animation: at every time, the matrix cell the chosen path picks."""
+    matrix: ImageMatrix = env.read("rife_matrix")
+    paths: BlendPaths = env.read("optimal_path")
+    blend = env.settings.blend
+    chosen = paths.optimal if blend == "optimal" else paths.diagonal
+    T = len(matrix.times)
+    frames = np.stack([matrix.frames[t, chosen.alpha_index[t]] for t in range(T)]).astype(np.float32)
+    out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
+    sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
+                                 paths.diagonal.alpha_index, thumb=72)
+    meta = {"frames": T, "blend": blend, "cost": float(chosen.cost)}
+    return StageResult(out, meta, sheet)
+
+
+def blending_assets() -> list:
+    return [
+        stage_asset("rife_matrix", _rife_matrix, uses=("alpha_depth",), modules=("ops.rife", "ops.image_matrix"),
+                    resources=("rife",)),
+        stage_asset("quality_metrics", _quality, modules=("ops.quality",)),
+        stage_asset("optimal_path", _paths, uses=("epsilon",), modules=("ops.path",),
+                    checks={"path_endpoints_and_monotone_t": _check_path}),
+        stage_asset("inbetween_frames", _frames, uses=("blend",), modules=("ops.output",)),
+    ]

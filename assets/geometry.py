@@ -1,0 +1,161 @@
+"""Per-keyframe lane: masks -> refined masks -> template -> textured template -> deformed frames."""
+from __future__ import annotations
+
+import numpy as np
+
+from ops import preview
+from ops.deform import Deformer, count_flipped, deform_sequence
+from ops.image_io import read_image
+from ops.masks import build_masks
+from ops.refine import refine_masks
+from ops.render import render
+from ops.texture import depth_weights, texture_template
+from ops.topology import optimize_topology
+from ops.types import DeformedSequence, Masks, RefinedMasks, TexturedTemplate
+
+from .stage import StageEnv, StageResult, stage_asset
+
+
+def _mask_image(path: str, field: str) -> np.ndarray:
+    img = read_image(path, field)
+    return img[..., 0] > 0.5 if img.shape[2] < 4 else (img[..., 0] > 0.5) & (img[..., 3] > 0.5)
+
+
+def _masks(k: int):
+    def compute(env: StageEnv) -> StageResult:
+        """Foreground and occlusion masks of the keyframe (§4.1): manual masks override the prediction."""
+        shot = env.shot
+        fg = shot.foreground_masks[k]
+        manual_fg = _mask_image(fg, f"masks.foreground[{k}]") if fg else None
+        manual_occ = [_mask_image(p, f"masks.occlusion[{k}][{i}]") for i, p in enumerate(shot.occlusion_masks[k])] or None
+        drawing = env.drawing(k)
+        masks = build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ)
+        for w in masks.warnings:
+            env.context.log.warning(w)
+        meta = {"regions": len(masks.occlusion), "foreground_px": int(masks.foreground.sum()), "source": masks.source,
+                "warnings": masks.warnings}
+        return StageResult(masks, meta, preview.mask_overlay(drawing, masks.foreground, masks.occlusion, None, None))
+
+    return compute
+
+
+def _check_masks(masks: Masks, env: StageEnv) -> tuple[bool, str]:
+    h, w = env.shot.size
+    ok = masks.foreground.shape == (h, w) and masks.foreground.any()
+    return ok, f"foreground {int(masks.foreground.sum())} px in a {w}x{h} frame"
+
+
+def _check_occlusion_inside(masks, env) -> tuple[bool, str]:
+    outside = [int((occ & ~masks.foreground).sum()) for occ in masks.occlusion]
+    empty = [i for i, occ in enumerate(masks.occlusion) if not occ.any()]
+    return not any(outside) and not empty, f"pixels outside the foreground per region: {outside}; empty regions: {empty}"
+
+
+def _refined(k: int):
+    def compute(env: StageEnv) -> StageResult:
+        """Occlusion masks deformed so their boundaries pass through the T-junctions (§4.1)."""
+        masks: Masks = env.read(f"key{k}/masks")
+        refined = refine_masks(masks, env.shot.t_junctions[k])
+        for w in refined.warnings:
+            env.context.log.warning(w)
+        pts = [b[j] for b, j in zip(refined.boundaries, refined.junctions)]
+        meta = {"regions": len(refined.occlusion), "t_junctions": int(sum(len(j) for j in refined.junctions)),
+                "boundary_vertices": [len(b) for b in refined.boundaries], "warnings": refined.warnings}
+        img = preview.mask_overlay(env.drawing(k), refined.foreground, refined.occlusion,
+                                   [refined.foreground_boundary, *refined.boundaries], pts)
+        return StageResult(refined, meta, img)
+
+    return compute
+
+
+def _template(k: int):
+    def compute(env: StageEnv) -> StageResult:
+        """2.5D template: mesh with pockets, handles and the cut topology of least energy (§4.2-4.4)."""
+        shot, s = env.shot, env.settings
+        refined: RefinedMasks = env.read(f"key{k}/refined_masks")
+        template = optimize_topology(refined, shot.key_pose(k), shot.key_pose(1 - k), shot.skeleton,
+                                     mode=s.template_mode, seed=s.seed)
+        for w in template.warnings:
+            env.context.log.warning(w)
+        meta = {"V": len(template.rest), "F": len(template.faces), "layers": int(template.face_layer.max()) + 1,
+                "regions": len(template.cut_assignment), "trials": template.trials, "energy": float(template.energy),
+                "mode": template.mode, "warnings": template.warnings}
+        img = preview.wireframe(env.drawing(k), template.rest, template.faces, template.face_layer, template.handles)
+        return StageResult(template, meta, img)
+
+    return compute
+
+
+def _check_template_folds(template, env) -> tuple[bool, str]:
+    n = count_flipped(template.rest, template.faces)
+    return n == 0, f"{n} folded triangles at rest"
+
+
+def _textured(k: int):
+    def compute(env: StageEnv) -> StageResult:
+        """Depth weights (bounded biharmonic) and texture of every layer; unseen parts inpainted (§5.1)."""
+        shot, s = env.shot, env.settings
+        template = env.read(f"key{k}/template")
+        own: RefinedMasks = env.read(f"key{k}/refined_masks")
+        other: RefinedMasks = env.read(f"key{1 - k}/refined_masks")
+        weights = depth_weights(template)
+        deformer = Deformer(template.rest, template.faces, template.handles, mu=s.mu)
+        to_other = deformer.solve(template.handle_targets(shot.key_pose(1 - k)), grad_tol=s.grad_tol, max_iter=s.max_iter)
+        textured = texture_template(template, weights, env.drawing(k), own.foreground, env.drawing(1 - k),
+                                    other.occlusion, other.foreground, to_other.x, env.resource("inpainter").get())
+        counts = np.bincount(textured.face_source, minlength=3)
+        meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
+                "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),
+                "energy_to_other_pose": float(to_other.energy)}
+        img = preview.side_by_side([textured.texture, textured.back_texture], ["front layer", "pockets (back)"])
+        return StageResult(textured, meta, img)
+
+    return compute
+
+
+def _deformed(k: int):
+    def compute(env: StageEnv) -> StageResult:
+        """The textured template deformed into every pose of the motion and rendered (§4.3, §5.1)."""
+        shot, s = env.shot, env.settings
+        textured: TexturedTemplate = env.read(f"key{k}/textured_template")
+        template = textured.template
+        deformer = Deformer(template.rest, template.faces, template.handles, mu=s.mu)
+        X, energies, iters = deform_sequence(template, shot.poses, "forward" if k == 0 else "backward", deformer)
+        T = len(shot.times)
+        H, W = shot.size
+        images = np.zeros((T, H, W, 4), np.float32)
+        inpainted = np.zeros((T, H, W), bool)
+        for i in range(T):
+            images[i], inpainted[i] = render(textured, X[i], shot.poses[i], (H, W), s.supersample)
+        seq = DeformedSequence(shot.times.copy(), X, images, inpainted, np.asarray(energies, float), np.asarray(iters, np.int64))
+        folds = [count_flipped(x, template.faces) for x in X]
+        meta = {"frames": T, "folded_triangles": folds, "energy_max": float(np.max(energies)),
+                "iterations_total": int(np.sum(iters)), "inpainted_share_max": float(
+                    (inpainted.sum((1, 2)) / np.maximum(1, (images[..., 3] > 0.5).sum((1, 2)))).max())}
+        return StageResult(seq, meta, preview.frame_strip(images))
+
+    return compute
+
+
+def _check_no_folds(seq: DeformedSequence, env: StageEnv) -> tuple[bool, str]:
+    faces = env.read(f"{env.context.asset_key.path[0]}/textured_template").template.faces
+    folds = [count_flipped(x, faces) for x in seq.vertices]
+    return sum(folds) == 0, f"folded triangles per frame: {folds}"
+
+
+def lane_assets(k: int) -> list:
+    lane = f"key{k}"
+    return [
+        stage_asset(f"{lane}/masks", _masks(k), modules=("ops.masks",),
+                    checks={"masks_nonempty_in_frame": _check_masks, "occlusion_inside_foreground": _check_occlusion_inside}),
+        stage_asset(f"{lane}/refined_masks", _refined(k), modules=("ops.refine", "ops.mesh", "ops.deform", "ops.energy"),
+                    uses=("mu",), checks={"occlusion_inside_foreground": _check_occlusion_inside}),
+        stage_asset(f"{lane}/template", _template(k), uses=("mu", "seed", "template_mode", "grad_tol", "max_iter", "max_trials"),
+                    modules=("ops.topology", "ops.template", "ops.mesh", "ops.deform", "ops.energy"),
+                    checks={"no_folded_triangles_at_rest": _check_template_folds}),
+        stage_asset(f"{lane}/textured_template", _textured(k), uses=("mu", "grad_tol", "max_iter"),
+                    modules=("ops.texture", "ops.render", "ops.inpaint", "ops.deform"), resources=("inpainter",)),
+        stage_asset(f"{lane}/deformed_frames", _deformed(k), uses=("mu", "grad_tol", "max_iter", "supersample"),
+                    modules=("ops.deform", "ops.energy", "ops.render"),
+                    checks={"no_folded_triangles": _check_no_folds}),
+    ]

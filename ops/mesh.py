@@ -1,0 +1,222 @@
+"""Constrained Delaunay triangulation of polygonal regions and mesh helpers (§4.2).
+
+Coordinates are image pixels (x right, y down). Faces are oriented so that
+`signed_areas` (the usual 0.5 * cross(e1, e2) on the raw numbers) is positive.
+
+Input repairs (exact duplicate vertices merged, zero-length and repeated
+segments dropped, degenerate loops dropped) happen BEFORE Triangle is called,
+because Triangle crashes on duplicate vertices referenced by segments; every
+repair is described in `MeshResult.warnings` (or appended to the `warnings`
+list passed to `triangulate`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import triangle as tr
+
+# Coordinates closer than this (pixels) are treated as the same vertex.
+_MERGE_GRID = 1e-7
+
+
+@dataclass
+class MeshResult:
+    """A triangulation and where its input points ended up."""
+
+    V: np.ndarray  # (n, 2) float64 vertices, pixels
+    F: np.ndarray  # (m, 3) int64 faces, positive signed area
+    loop_vertex: list[np.ndarray]  # per input loop (n_i,) int64 mesh vertex of each loop point, -1 if dropped
+    point_vertex: np.ndarray  # (p,) int64 mesh vertex of each extra point, -1 if dropped
+    warnings: list[str] = field(default_factory=list)
+
+
+def signed_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(m,) float64 signed areas of faces F (m, 3) over V (n, 2); positive = our orientation."""
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    e1, e2 = b - a, c - a
+    return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
+
+
+def polygon_area(P: np.ndarray) -> float:
+    """Signed area (pixels^2) of the closed polyline P (n, 2) (shoelace)."""
+    x, y = P[:, 0], P[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def points_in_polygon(Q: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """(k,) bool even-odd test of points Q (k, 2) against the closed polyline P (n, 2)."""
+    a, b = P, np.roll(P, -1, axis=0)
+    qx, qy = Q[:, 0:1], Q[:, 1:2]
+    straddle = (a[None, :, 1] > qy) != (b[None, :, 1] > qy)
+    dy = np.where(b[:, 1] == a[:, 1], 1.0, b[:, 1] - a[:, 1])
+    x_cross = a[None, :, 0] + (qy - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / dy[None, :]
+    return (straddle & (qx < x_cross)).sum(axis=1) % 2 == 1
+
+
+def project_to_polyline(Q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest point on the closed polyline P (n, 2) for each Q (k, 2): (param (k,) in [0, n), dist (k,) pixels).
+
+    param = i + s means the point lies at fraction s along edge P[i] -> P[i+1].
+    """
+    a, b = P, np.roll(P, -1, axis=0)
+    e = b - a
+    len2 = np.maximum((e**2).sum(1), 1e-300)
+    s = ((Q[:, None, :] - a[None]) * e[None]).sum(-1) / len2[None]
+    s = np.clip(s, 0.0, 1.0)
+    foot = a[None] + s[..., None] * e[None]
+    d = np.linalg.norm(Q[:, None, :] - foot, axis=-1)
+    i = d.argmin(axis=1)
+    rows = np.arange(len(Q))
+    return i + s[rows, i], d[rows, i]
+
+
+def edges_of(F: np.ndarray) -> np.ndarray:
+    """(3m, 2) int64 directed half-edges (F[:,0]->F[:,1], F[:,1]->F[:,2], F[:,2]->F[:,0])."""
+    return np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=0)
+
+
+def boundary_loops(F: np.ndarray) -> list[np.ndarray]:
+    """Boundary loops of the oriented mesh F (m, 3): list of (k,) int64 vertex cycles, longest first.
+
+    A boundary half-edge is one whose reverse is absent; loops follow the
+    faces' orientation. Pinched vertices (several outgoing boundary edges) are
+    handled by consuming edges, so every boundary edge lies on exactly one loop.
+    """
+    E = edges_of(np.asarray(F, dtype=np.int64))
+    if len(E) == 0:
+        return []
+    key = E[:, 0] * (E.max() + 1) + E[:, 1]
+    rkey = E[:, 1] * (E.max() + 1) + E[:, 0]
+    bnd = E[~np.isin(key, rkey)]
+    # Repeated boundary half-edges (non-manifold sewing) are walked once each.
+    out: dict[int, list[int]] = {}
+    for a, b in bnd.tolist():
+        out.setdefault(a, []).append(b)
+    loops: list[np.ndarray] = []
+    for start in sorted(out):
+        while out.get(start):
+            loop, v = [start], out[start].pop()
+            while v != start and out.get(v):
+                loop.append(v)
+                v = out[v].pop()
+            loops.append(np.asarray(loop, dtype=np.int64))
+    loops.sort(key=len, reverse=True)
+    return loops
+
+
+def vertex_components(n: int, F: np.ndarray) -> np.ndarray:
+    """(n,) int64 connected-component label of each vertex (isolated vertices get their own)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    E = edges_of(np.asarray(F, dtype=np.int64))
+    A = coo_matrix((np.ones(len(E)), (E[:, 0], E[:, 1])), shape=(n, n))
+    return connected_components(A, directed=False)[1].astype(np.int64)
+
+
+def _merge_points(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact-duplicate merge (after snapping to a 1e-7 px grid): (unique (u, 2) in first-seen order, inverse (k,))."""
+    key = np.round(P / _MERGE_GRID).astype(np.int64)
+    _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return P[first[order]], rank[inv.ravel()]
+
+
+def _loop_segments(idx: list[np.ndarray], warnings: list[str]) -> np.ndarray:
+    """(s, 2) int64 segments of closed loops given as merged vertex indices, zero-length/repeated removed."""
+    segs = []
+    for li, ix in enumerate(idx):
+        s = np.stack([ix, np.roll(ix, -1)], axis=1)
+        zero = s[:, 0] == s[:, 1]
+        if zero.any():
+            warnings.append(f"loop {li}: removed {int(zero.sum())} zero-length segment(s) (duplicate vertices)")
+        segs.append(s[~zero])
+    S = np.concatenate(segs, axis=0) if segs else np.zeros((0, 2), np.int64)
+    _, keep = np.unique(np.sort(S, axis=1), axis=0, return_index=True)
+    if len(keep) < len(S):
+        warnings.append(f"removed {len(S) - len(keep)} repeated segment(s) shared by loops")
+    return S[np.sort(keep)]
+
+
+def triangulate_pslg(
+    loops: list[np.ndarray],
+    max_area: float,
+    min_angle: float = 20.0,
+    holes: np.ndarray | None = None,
+    points: np.ndarray | None = None,
+) -> MeshResult:
+    """CDT of the region inside loops[0] with loops[1:] as constraints/holes and extra vertices `points` (p, 2).
+
+    loops: closed polylines (n_i, 2) float64 pixels, first != last; loops[0] is the
+    outer boundary. A loop containing a point of `holes` (k, 2) becomes a hole;
+    the others stay as internal constraint edges. Extra points outside the
+    domain are dropped (point_vertex = -1) with a warning.
+    """
+    warnings: list[str] = []
+    loops = [np.asarray(L, dtype=np.float64).reshape(-1, 2) for L in loops]
+    pts = np.zeros((0, 2)) if points is None else np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    sizes = [len(L) for L in loops]
+    allp = np.concatenate(loops + [pts], axis=0)
+    U, inv = _merge_points(allp)
+    if len(U) < len(allp):
+        warnings.append(f"merged {len(allp) - len(U)} duplicate input vertex(es)")
+    offs = np.cumsum([0] + sizes)
+    idx = [inv[offs[i]:offs[i + 1]] for i in range(len(loops))]
+    if len(np.unique(idx[0])) < 3:
+        raise ValueError("outer boundary loop has fewer than 3 distinct vertices")
+    segs = _loop_segments(idx, warnings)
+    data = {"vertices": U, "segments": segs.astype(np.int32)}
+    if holes is not None and len(holes):
+        data["holes"] = np.asarray(holes, dtype=np.float64).reshape(-1, 2)
+    out = tr.triangulate(data, f"pq{min_angle:g}a{max_area:.12g}Q")
+    V = np.asarray(out["vertices"], dtype=np.float64)
+    F = np.asarray(out.get("triangles", np.zeros((0, 3))), dtype=np.int64)
+    V, F, new_of_old = _clean(V, F, loops[0], warnings)
+    vmap = new_of_old[: len(U)]
+    loop_vertex = [vmap[ix] for ix in idx]
+    point_vertex = vmap[inv[offs[-1]:]]
+    if (point_vertex < 0).any():
+        warnings.append(f"{int((point_vertex < 0).sum())} extra point(s) outside the meshed region dropped")
+    return MeshResult(V, F, loop_vertex, point_vertex, warnings)
+
+
+def _clean(V: np.ndarray, F: np.ndarray, outer: np.ndarray, warnings: list[str]):
+    """Orient faces positively, drop faces outside `outer` and unused vertices: (V, F, new index of each old vertex)."""
+    a = signed_areas(V, F)
+    neg = a < 0
+    F = F.copy()
+    F[neg] = F[neg][:, [0, 2, 1]]
+    # Constraint loops poking outside the outer boundary would shield exterior triangles from Triangle's eating.
+    inside = points_in_polygon(V[F].mean(axis=1), outer) & (np.abs(a) > 0)
+    if not inside.all():
+        warnings.append(f"dropped {int((~inside).sum())} face(s) outside the outer boundary or degenerate")
+    F = F[inside]
+    used = np.zeros(len(V), bool)
+    used[F.ravel()] = True
+    new = np.full(len(V), -1, np.int64)
+    new[used] = np.arange(used.sum())
+    return V[used], new[F], new
+
+
+def triangulate(
+    loops: list[np.ndarray],
+    max_area: float,
+    min_angle: float = 20.0,
+    holes: np.ndarray | None = None,
+    warnings: list[str] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """CDT of the region bounded by closed polylines: (V (n, 2) float64 pixels, F (m, 3) int64, positive area).
+
+    loops[0] is the outer boundary, loops[1:] are holes (if a point of `holes`
+    lies inside) or internal constraint loops whose edges appear as mesh edges.
+    Repairs of the input (merged duplicates, removed zero-length segments) are
+    appended to `warnings` if a list is given. Input vertices keep their
+    positions; see `triangulate_pslg` for the input-to-mesh vertex map.
+    """
+    res = triangulate_pslg(loops, max_area, min_angle, holes)
+    if warnings is not None:
+        warnings.extend(res.warnings)
+    return res.V, res.F

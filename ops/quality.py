@@ -1,0 +1,84 @@
+"""Texture and interpolation quality of the image matrix cells (§5.2).
+
+Texture quality q(t, alpha) measures how much of a blended frame's character
+comes from inpainted texture; interpolation quality Q(t) measures how hard
+the RIFE flow at time t is, as the integral of its squared divergence
+(flows that stretch or squash regions, rather than translate or shear them,
+are where frame interpolation produces ghosting).
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+
+def inpainted_share(inpainted: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """inpainted: (T, H, W) bool, alpha: (T, H, W) float32 coverage -> (T,) float64 share in [0, 1]."""
+    inpainted = np.asarray(inpainted, dtype=bool)
+    alpha = np.asarray(alpha, dtype=np.float64)
+    if inpainted.shape != alpha.shape or inpainted.ndim != 3:
+        raise ValueError(f"inpainted {inpainted.shape} and alpha {alpha.shape} must both be (T, H, W)")
+    covered = alpha.sum(axis=(1, 2))
+    dirty = np.where(inpainted, alpha, 0.0).sum(axis=(1, 2))
+    # An empty frame shows no texture at all, so none of it is inpainted.
+    return np.divide(dirty, covered, out=np.zeros_like(covered), where=covered > 0)
+
+
+def texture_quality(share0: np.ndarray, share1: np.ndarray, alphas: np.ndarray) -> np.ndarray:
+    """share0, share1: (T,) inpainted shares of the two sequences, alphas: (A,) -> (T, A) cost q."""
+    s0 = np.asarray(share0, dtype=np.float64)[:, None]
+    s1 = np.asarray(share1, dtype=np.float64)[:, None]
+    a = np.asarray(alphas, dtype=np.float64)[None, :]
+    if s0.shape != s1.shape:
+        raise ValueError(f"share0 {s0.shape[:1]} and share1 {s1.shape[:1]} must have the same length")
+    return (1.0 - a) * s0 + a * s1
+
+
+def flow_divergence(flow: np.ndarray) -> np.ndarray:
+    """flow: (H, W, 2) pixels, (u = x along columns, v = y along rows) -> (H, W) float64 du/dx + dv/dy."""
+    flow = np.asarray(flow, dtype=np.float64)
+    if flow.ndim != 3 or flow.shape[2] != 2:
+        raise ValueError(f"flow must be (H, W, 2), got {flow.shape}")
+    # x runs along axis 1 (columns), y along axis 0 (rows): differentiating the
+    # other way round would report shears as expansions.
+    du_dx = np.gradient(flow[..., 0], axis=1)
+    dv_dy = np.gradient(flow[..., 1], axis=0)
+    return du_dx + dv_dy
+
+
+def interpolation_quality(flows: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
+    """flows: (T, H, W, 4) RIFE flows at alpha 1/2, weight: (T, H, W) or None -> (T,) float64 sum |div v|^2."""
+    flows = np.asarray(flows)
+    if flows.ndim != 4 or flows.shape[3] != 4:
+        raise ValueError(f"flows must be (T, H, W, 4), got {flows.shape}")
+    if weight is not None and np.shape(weight) != flows.shape[:3]:
+        raise ValueError(f"weight {np.shape(weight)} must be (T, H, W) = {flows.shape[:3]}")
+    out = np.empty(flows.shape[0], dtype=np.float64)
+    for t in range(flows.shape[0]):  # one frame at a time: flows may be a large memmap
+        d2 = flow_divergence(flows[t, ..., 0:2]) ** 2 + flow_divergence(flows[t, ..., 2:4]) ** 2
+        if weight is not None:
+            d2 = d2 * np.asarray(weight[t], dtype=np.float64)
+        out[t] = d2.sum()
+    return out
+
+
+def coverage_weight(alpha0: np.ndarray, alpha1: np.ndarray) -> np.ndarray:
+    """alpha0, alpha1: (T, H, W) coverage of the two sequences -> (T, H, W) bool where either covers."""
+    return (np.asarray(alpha0) > 0) | (np.asarray(alpha1) > 0)
+
+
+def quality_table(times: np.ndarray, alphas: np.ndarray, q: np.ndarray, Q: np.ndarray) -> pd.DataFrame:
+    """times: (T,), alphas: (A,), q: (T, A), Q: (T,) -> long DataFrame (t, alpha, q, Q), T * A rows, t-major."""
+    times = np.asarray(times, dtype=np.float64)
+    alphas = np.asarray(alphas, dtype=np.float64)
+    q = np.asarray(q, dtype=np.float64)
+    Q = np.asarray(Q, dtype=np.float64)
+    n_t, n_a = len(times), len(alphas)
+    if q.shape != (n_t, n_a) or Q.shape != (n_t,):
+        raise ValueError(f"q {q.shape} must be (T, A) = {(n_t, n_a)} and Q {Q.shape} must be (T,)")
+    return pd.DataFrame({
+        "t": np.repeat(times, n_a),
+        "alpha": np.tile(alphas, n_t),
+        "q": q.reshape(-1),
+        "Q": np.repeat(Q, n_a),
+    })

