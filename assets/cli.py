@@ -65,10 +65,12 @@ class Session:
 
         return {name: stage_config(self.settings, uses, modules) for name, (uses, modules) in STAGE_SPECS.items()}
 
-    def statuses(self, partition: str):
+    def statuses(self, partition: str, stages: tuple[str, ...] | None = None):
+        from .graph import STAGES
         from .provenance import asset_key, resolve
 
-        return resolve(self.instance, partition, self.configs(), lambda n: self.store.exists(asset_key(n), partition))
+        return resolve(self.instance, partition, self.configs(), lambda n: self.store.exists(asset_key(n), partition),
+                       stages or STAGES)
 
     def materialize(self, partition: str, names: list[str]):
         from .definitions import ALL_ASSETS

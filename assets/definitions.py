@@ -20,8 +20,9 @@ from resources.shots import ShotsResource
 from resources.storage import StageStore
 
 from .blending import blending_assets
+from .evaluation import evaluation_assets
 from .geometry import lane_assets
-from .graph import SOURCES
+from .graph import EVAL_STAGES, SOURCES
 from .provenance import asset_key
 from .stage import PARTITIONS, source_assets
 
@@ -63,13 +64,15 @@ def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:
 
 
 SOURCE_ASSETS = source_assets(_versions)
-STAGE_ASSETS = [*lane_assets(0), *lane_assets(1), *blending_assets()]
+STAGE_ASSETS = [*lane_assets(0), *lane_assets(1), *blending_assets(), *evaluation_assets()]
 ALL_ASSETS = [*SOURCE_ASSETS, *STAGE_ASSETS]
 
-observe_job = dg.define_asset_job("observe_sources", selection=dg.AssetSelection.assets(*[asset_key(s) for s in SOURCES]),
+observe_job = dg.define_asset_job("observe_sources", selection=[asset_key(s) for s in SOURCES],
                                   partitions_def=PARTITIONS)
-shot_job = dg.define_asset_job("inbetween_shot", selection=dg.AssetSelection.assets(*STAGE_ASSETS),
+shot_job = dg.define_asset_job("inbetween_shot", selection=dg.AssetSelection.groups("key0", "key1", "blending"),
                                partitions_def=PARTITIONS)
+evaluation_job = dg.define_asset_job("evaluate_shot", selection=[asset_key(n) for n in EVAL_STAGES],
+                                     partitions_def=PARTITIONS)
 
 
 @dg.sensor(job=observe_job, minimum_interval_seconds=30, default_status=dg.DefaultSensorStatus.RUNNING)
@@ -83,7 +86,7 @@ def shot_directories(context: dg.SensorEvaluationContext, shots: ShotsResource):
 
 
 def build_definitions(settings: PipelineSettings | None = None) -> dg.Definitions:
-    return dg.Definitions(assets=ALL_ASSETS, jobs=[observe_job, shot_job], sensors=[shot_directories],
+    return dg.Definitions(assets=ALL_ASSETS, jobs=[observe_job, shot_job, evaluation_job], sensors=[shot_directories],
                           resources=build_resources(settings))
 
 

@@ -4,12 +4,11 @@ from __future__ import annotations
 import numpy as np
 
 from ops import preview
-from ops.deform import Deformer, count_flipped, deform_sequence
+from ops.deform import count_flipped
 from ops.image_io import read_image
 from ops.masks import build_masks
 from ops.refine import refine_masks
-from ops.render import render
-from ops.texture import depth_weights, texture_template
+from ops.lane import deform_lane, texture_lane
 from ops.topology import optimize_topology
 from ops.types import DeformedSequence, Masks, RefinedMasks, TexturedTemplate
 
@@ -95,18 +94,13 @@ def _textured(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Depth weights (bounded biharmonic) and texture of every layer; unseen parts inpainted (§5.1)."""
         shot, s = env.shot, env.settings
-        template = env.read(f"key{k}/template")
-        own: RefinedMasks = env.read(f"key{k}/refined_masks")
-        other: RefinedMasks = env.read(f"key{1 - k}/refined_masks")
-        weights = depth_weights(template)
-        deformer = Deformer(template.rest, template.faces, template.handles, mu=s.mu)
-        to_other = deformer.solve(template.handle_targets(shot.key_pose(1 - k)), grad_tol=s.grad_tol, max_iter=s.max_iter)
-        textured = texture_template(template, weights, env.drawing(k), own.foreground, env.drawing(1 - k),
-                                    other.occlusion, other.foreground, to_other.x, env.resource("inpainter").get())
+        textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
+                                        env.read(f"key{1 - k}/refined_masks"), env.drawing(k), env.drawing(1 - k),
+                                        shot.key_pose(1 - k), env.resource("inpainter").get(), s.mu, s.grad_tol, s.max_iter)
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),
-                "energy_to_other_pose": float(to_other.energy)}
+                "energy_to_other_pose": energy}
         img = preview.side_by_side([textured.texture, textured.back_texture], ["front layer", "pockets (back)"])
         return StageResult(textured, meta, img)
 
@@ -118,21 +112,13 @@ def _deformed(k: int):
         """The textured template deformed into every pose of the motion and rendered (§4.3, §5.1)."""
         shot, s = env.shot, env.settings
         textured: TexturedTemplate = env.read(f"key{k}/textured_template")
-        template = textured.template
-        deformer = Deformer(template.rest, template.faces, template.handles, mu=s.mu)
-        X, energies, iters = deform_sequence(template, shot.poses, "forward" if k == 0 else "backward", deformer)
-        T = len(shot.times)
-        H, W = shot.size
-        images = np.zeros((T, H, W, 4), np.float32)
-        inpainted = np.zeros((T, H, W), bool)
-        for i in range(T):
-            images[i], inpainted[i] = render(textured, X[i], shot.poses[i], (H, W), s.supersample)
-        seq = DeformedSequence(shot.times.copy(), X, images, inpainted, np.asarray(energies, float), np.asarray(iters, np.int64))
-        folds = [count_flipped(x, template.faces) for x in X]
-        meta = {"frames": T, "folded_triangles": folds, "energy_max": float(np.max(energies)),
-                "iterations_total": int(np.sum(iters)), "inpainted_share_max": float(
-                    (inpainted.sum((1, 2)) / np.maximum(1, (images[..., 3] > 0.5).sum((1, 2)))).max())}
-        return StageResult(seq, meta, preview.frame_strip(images))
+        seq = deform_lane(textured, shot.times, shot.poses, k == 1, shot.size, s.mu, s.supersample)
+        folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
+        coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
+        meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
+                "iterations_total": int(seq.iterations.sum()),
+                "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max())}
+        return StageResult(seq, meta, preview.frame_strip(seq.images))
 
     return compute
 
@@ -154,8 +140,8 @@ def lane_assets(k: int) -> list:
                     modules=("ops.topology", "ops.template", "ops.mesh", "ops.deform", "ops.energy"),
                     checks={"no_folded_triangles_at_rest": _check_template_folds}),
         stage_asset(f"{lane}/textured_template", _textured(k), uses=("mu", "grad_tol", "max_iter"),
-                    modules=("ops.texture", "ops.render", "ops.inpaint", "ops.deform"), resources=("inpainter",)),
+                    modules=("ops.lane", "ops.texture", "ops.render", "ops.inpaint", "ops.deform"), resources=("inpainter",)),
         stage_asset(f"{lane}/deformed_frames", _deformed(k), uses=("mu", "grad_tol", "max_iter", "supersample"),
-                    modules=("ops.deform", "ops.energy", "ops.render"),
+                    modules=("ops.lane", "ops.deform", "ops.energy", "ops.render"),
                     checks={"no_folded_triangles": _check_no_folds}),
     ]

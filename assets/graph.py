@@ -11,7 +11,8 @@ through the refined masks, which carry them snapped onto the boundaries.
 """
 from __future__ import annotations
 
-SOURCES = ("key0/drawing", "key0/pose", "key0/t_junctions", "key1/drawing", "key1/pose", "key1/t_junctions", "motion")
+SOURCES = ("key0/drawing", "key0/pose", "key0/t_junctions", "key1/drawing", "key1/pose", "key1/t_junctions", "motion",
+           "ground_truth")
 
 
 def _lane(k: int) -> dict[str, tuple[str, ...]]:
@@ -37,11 +38,22 @@ PARENTS: dict[str, tuple[str, ...]] = {
 
 STAGES = tuple(PARENTS)  # topological order
 
+# The evaluation group (issue 5): baselines and metrics against ground truth; `inbetween eval` runs it.
+EVAL_PARENTS: dict[str, tuple[str, ...]] = {
+    "evaluation/rife_direct": ("key0/drawing", "key1/drawing", "motion"),
+    "evaluation/single_layer": ("key0/refined_masks", "key1/refined_masks", "key0/drawing", "key1/drawing",
+                                "key0/pose", "key1/pose", "motion"),
+    "evaluation/metrics": ("rife_matrix", "optimal_path", "evaluation/single_layer", "evaluation/rife_direct",
+                           "key0/drawing", "key1/drawing", "ground_truth"),
+}
+EVAL_STAGES = tuple(EVAL_PARENTS)
+ALL_PARENTS = {**PARENTS, **EVAL_PARENTS}
 
-def descendants(keys: set[str]) -> set[str]:
-    """Every stage downstream of any of `keys` (not including them)."""
+
+def descendants(keys: set[str], stages: tuple[str, ...] = STAGES) -> set[str]:
+    """Every one of `stages` downstream of any of `keys` (not including them)."""
     out: set[str] = set()
-    for stage in STAGES:
-        if any(p in keys or p in out for p in PARENTS[stage]):
+    for stage in stages:
+        if any(p in keys or p in out for p in ALL_PARENTS[stage]):
             out.add(stage)
     return out

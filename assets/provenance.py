@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import dagster as dg
 
-from .graph import PARENTS, SOURCES, STAGES, descendants
+from .graph import ALL_PARENTS, SOURCES, STAGES, descendants
 
 INPUTS_KEY = "inbetween/inputs"
 
@@ -47,7 +47,7 @@ def last_inputs(instance: dg.DagsterInstance, name: str, partition: str) -> tupl
 
 def current_inputs(instance: dg.DagsterInstance, name: str, partition: str, config: dict) -> dict:
     """What a stage would record if it ran now: parents' versions + its config."""
-    return {"parents": {p: current_version(instance, p, partition) for p in PARENTS[name]}, "config": config}
+    return {"parents": {p: current_version(instance, p, partition) for p in ALL_PARENTS[name]}, "config": config}
 
 
 @dataclass
@@ -57,10 +57,11 @@ class StageStatus:
     causes: list[str]
 
 
-def resolve(instance: dg.DagsterInstance, partition: str, configs: dict[str, dict], exists) -> dict[str, StageStatus]:
-    """Status of every stage (one hop, as Dagster computes it). `exists(name)` checks storage."""
+def resolve(instance: dg.DagsterInstance, partition: str, configs: dict[str, dict], exists,
+            stages: tuple[str, ...] = STAGES) -> dict[str, StageStatus]:
+    """Status of each stage (one hop, as Dagster computes it). `exists(name)` checks storage."""
     out = {}
-    for name in STAGES:
+    for name in stages:
         version, recorded = last_inputs(instance, name, partition)
         if version is None or not exists(name):
             out[name] = StageStatus(name, "missing", ["never materialized" if version is None else "stored output missing"])
@@ -80,12 +81,12 @@ def resolve(instance: dg.DagsterInstance, partition: str, configs: dict[str, dic
     return out
 
 
-def to_run(statuses: dict[str, StageStatus]) -> list[str]:
+def to_run(statuses: dict[str, StageStatus], stages: tuple[str, ...] = STAGES) -> list[str]:
     """Stages to execute: stale or missing ones and everything downstream, in graph order.
 
     Downstream stages whose inputs turn out identical skip their work inside the run
     (see assets.stage), so this over-selection never recomputes anything needlessly.
     """
     direct = {n for n, s in statuses.items() if s.state != "fresh"}
-    chosen = direct | descendants(direct)
-    return [n for n in STAGES if n in chosen]
+    chosen = direct | descendants(direct, stages)
+    return [n for n in stages if n in chosen]

@@ -28,7 +28,7 @@ from resources.settings import PipelineSettings
 from resources.shots import ShotsResource
 from resources.storage import StageStore, content_hash
 
-from .graph import PARENTS, SOURCES
+from .graph import ALL_PARENTS, SOURCES
 from .provenance import INPUTS_KEY, asset_key, current_inputs, last_inputs
 
 PARTITIONS = dg.DynamicPartitionsDefinition(name="shots")
@@ -120,11 +120,11 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, uses: 
     check_specs = [dg.AssetCheckSpec(c, asset=key) for c in checks]
     group = group or (name.split("/")[0] if "/" in name else "blending")
 
-    @dg.asset(key=key, deps=[asset_key(p) for p in PARENTS[name]], partitions_def=PARTITIONS,
+    @dg.asset(key=key, deps=[asset_key(p) for p in ALL_PARENTS[name]], partitions_def=PARTITIONS,
               io_manager_key="io_manager", required_resource_keys={"io_manager", "shots", "settings", *resources},
               check_specs=check_specs, group_name=group.replace("/", "_"), description=description or compute.__doc__,
               code_version=code_version(modules) if modules else None)
-    def _asset(context: dg.AssetExecutionContext):
+    def _asset(context):
         partition = context.partition_key
         env = StageEnv(context, partition, context.resources.io_manager, context.resources.shots, context.resources.settings)
         config = stage_config(env.settings, uses, modules)
@@ -177,9 +177,9 @@ def source_assets(versions_fn: Callable[[ShotsResource, str], dict[str, str]]) -
             keys = [context.partition_key] if context.has_partition_key else context.instance.get_dynamic_partitions("shots")
             return dg.DataVersionsByPartition({k: dg.DataVersion(versions_fn(shots, k)[_name]) for k in keys})
 
-        group = name.split("/")[0] if "/" in name else "motion"
-        out.append(dg.observable_source_asset(observe, key=asset_key(name), partitions_def=PARTITIONS,
-                                              group_name=group, description=_SOURCE_DOCS[name.split("/")[-1]]))
+        group = name.split("/")[0] if "/" in name else ("evaluation" if name == "ground_truth" else "motion")
+        out.append(dg.observable_source_asset(key=asset_key(name), partitions_def=PARTITIONS, group_name=group,
+                                              description=_SOURCE_DOCS[name.split("/")[-1]])(observe))
     return out
 
 
@@ -188,4 +188,5 @@ _SOURCE_DOCS = {
     "pose": "The skeleton and this keyframe's pose from shot.json.",
     "t_junctions": "This keyframe's T-junction clicks from shot.json.",
     "motion": "The skeleton and every output pose and time (after interpolation).",
+    "ground_truth": "The reference frames of the shot, if any (evaluation only).",
 }

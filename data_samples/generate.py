@@ -408,7 +408,7 @@ def shot_legs_cross() -> ShotSpec:
 
 TAIL_JOINTS = ["base", "s1", "s2", "s3", "s4", "s5", "tip"]
 TAIL_PARENTS = [-1, 0, 1, 2, 3, 4, 5]
-TAIL_LENGTH = {1: 46, 2: 42, 3: 38, 4: 34, 5: 31, 6: 28}
+TAIL_LENGTH = {1: 43, 2: 39, 3: 35, 4: 32, 5: 29, 6: 26}
 
 
 def tentacle(seed: int) -> Character:
@@ -421,7 +421,7 @@ def tentacle(seed: int) -> Character:
 
 def shot_tail() -> ShotSpec:
     """The tentacle rises almost straight, then curls so its last segments pass in front of its base."""
-    root = (88.0, 222.0)
+    root = (80.0, 210.0)
     z = {j: -0.4 * j for j in range(7)}  # the tip is nearest the viewer
     k0 = forward(TAIL_PARENTS, root, {1: -84, 2: -74, 3: -62, 4: -50, 5: -38, 6: -26}, TAIL_LENGTH, z)
     k1 = forward(TAIL_PARENTS, root, {1: -80, 2: -20, 3: 50, 4: 150, 5: 180, 6: 190}, TAIL_LENGTH, z)
@@ -533,11 +533,10 @@ def write_shot(spec: ShotSpec, out_root: Path) -> Path:
 
 
 def _dump(data: dict) -> str:
-    """JSON with one pose row per line: readable and diff-friendly."""
+    """JSON with every innermost list (names, parents, [x, y, z]) on one line: readable and diff-friendly."""
     text = json.dumps(data, indent=1)
-    # collapse the innermost [x, y(, z)] lists onto one line
-    return re.sub(r"\[\s*(-?[\d.e+-]+),\s*(-?[\d.e+-]+)(?:,\s*(-?[\d.e+-]+))?\s*\]",
-                  lambda m: "[" + ", ".join(g for g in m.groups() if g is not None) + "]", text)
+    return re.sub(r"\[[^\[\]{}]*\]", lambda m: "[" + ", ".join(v.strip() for v in m.group(0)[1:-1].split(",")) + "]"
+                  if m.group(0)[1:-1].strip() else "[]", text)
 
 
 def generate(out_root: Path, names: list[str] | None = None) -> list[Path]:

@@ -66,7 +66,8 @@ def ink_mask(lum: np.ndarray) -> np.ndarray:
     # the paper level is the bright mode: tinted paper or vignetting must not read as ink
     paper = float(np.percentile(lum, 90))
     darker = lum < paper - 0.08
-    very_dark = lum < paper - 0.35  # solid ink fills, where the local threshold only finds the edges
+    # solid ink fills, where the local threshold only finds the edges; absolute too, so shaded paper is not ink
+    very_dark = lum < min(paper - 0.35, 0.3)
     return (local & darker) | very_dark
 
 
@@ -85,7 +86,9 @@ def foreground_mask(drawing: np.ndarray, close_px: int | None = None) -> np.ndar
     lum = luminance(drawing)
     ink = ink_mask(lum)
     if drawing.ndim == 3 and drawing.shape[2] in (2, 4):
-        ink |= drawing[..., -1] > 0.5  # a cut-out character on a transparent canvas is foreground too
+        opaque = drawing[..., -1] > 0.5
+        if (~opaque).mean() > 0.01:  # a cut-out character on a transparent canvas is foreground too
+            ink |= opaque
     h, w = lum.shape
     r = close_px if close_px is not None else max(3, int(round(0.01 * max(h, w))))
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
@@ -110,17 +113,22 @@ def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
     return np.linalg.norm(points - (a + t[..., None] * d), axis=-1)
 
 
-def _pixel_grid(shape: tuple[int, int]) -> np.ndarray:
-    """(H, W, 2) float64 pixel centre coordinates (x, y)."""
-    ys, xs = np.mgrid[0 : shape[0], 0 : shape[1]]
-    return np.stack([xs, ys], axis=-1).astype(np.float64)
+def _bone_ends(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(B, 2, 2) float64 bone segment end points (parent, child) x (x, y), pixels."""
+    return pose[:, :2].astype(np.float64)[skeleton.bones]
 
 
-def bone_distances(shape: tuple[int, int], pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(B, H, W) float64 distance, pixels, from every pixel centre to every bone segment."""
-    grid = _pixel_grid(shape)
-    xy = pose[:, :2].astype(np.float64)
-    return np.stack([segment_distance(grid, xy[p], xy[c]) for p, c in skeleton.bones])
+def _segment_distance_box(shape: tuple[int, int], a: np.ndarray, b: np.ndarray, reach: float):
+    """Distance, pixels, from the pixels of a box around segment a-b (padded by reach) to it: (rows, cols, (h, w))."""
+    lo = np.floor(np.minimum(a, b) - reach).astype(int)
+    hi = np.ceil(np.maximum(a, b) + reach).astype(int) + 1
+    c0, r0 = np.maximum(lo, 0)
+    c1, r1 = min(hi[0], shape[1]), min(hi[1], shape[0])
+    if c0 >= c1 or r0 >= r1:
+        return slice(0, 0), slice(0, 0), np.zeros((0, 0))
+    ys, xs = np.mgrid[r0:r1, c0:c1]
+    pts = np.stack([xs, ys], axis=-1).astype(np.float64)
+    return slice(r0, r1), slice(c0, c1), segment_distance(pts, a, b)
 
 
 def bone_radii(
@@ -151,9 +159,12 @@ def thick_regions(
 
     These regions overlap where bodies overlap, which is what the occlusion predictor needs.
     """
-    dist = bone_distances(foreground.shape, pose, skeleton)
-    radii = bone_radii(foreground, pose, skeleton)
-    return (dist <= radii[:, None, None] + margin_px) & foreground[None]
+    radii = bone_radii(foreground, pose, skeleton) + margin_px
+    out = np.zeros((len(radii),) + foreground.shape, bool)
+    for i, ((a, b), r) in enumerate(zip(_bone_ends(pose, skeleton), radii)):
+        rows, cols, dist = _segment_distance_box(foreground.shape, a, b, r)
+        out[i, rows, cols] = (dist <= r) & foreground[rows, cols]
+    return out
 
 
 def bone_regions(
@@ -164,11 +175,18 @@ def bone_regions(
     Voronoi by point-segment distance, limited to `reach` x the bone's radius (bone_radii) so that a
     bone does not claim distant parts of the silhouette. Use thick_regions for overlapping regions.
     """
-    dist = bone_distances(foreground.shape, pose, skeleton)
-    radii = bone_radii(foreground, pose, skeleton)
-    nearest = np.argmin(dist, axis=0)
-    own = nearest[None] == np.arange(len(radii))[:, None, None]
-    return own & (dist <= reach * radii[:, None, None]) & foreground[None]
+    radii = reach * bone_radii(foreground, pose, skeleton)
+    best = np.full(foreground.shape, np.inf)
+    owner = np.full(foreground.shape, -1, np.int64)
+    whole = float(sum(foreground.shape))  # a box padded by this covers the image
+    for i, (a, b) in enumerate(_bone_ends(pose, skeleton)):
+        rows, cols, dist = _segment_distance_box(foreground.shape, a, b, whole)
+        closer = dist < best[rows, cols]
+        best[rows, cols] = np.where(closer, dist, best[rows, cols])
+        owner[rows, cols] = np.where(closer, i, owner[rows, cols])
+    within = best <= radii[np.maximum(owner, 0)]
+    own = owner[None] == np.arange(len(radii))[:, None, None]
+    return own & (within & foreground)[None]
 
 
 def bone_depths(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
@@ -179,9 +197,16 @@ def bone_depths(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
 # ---------------------------------------------------------------- occlusion prediction
 
 
-def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, adjacent: np.ndarray) -> tuple[list, list[str]]:
+def _bone_name(skeleton: Skeleton, b: int) -> str:
+    """Readable name of bone b, e.g. 'elbow-hand'."""
+    p, c = skeleton.bones[b]
+    return f"{skeleton.joints[p]}-{skeleton.joints[c]}"
+
+
+def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton) -> tuple[list, list[str]]:
     """Overlaps of non-adjacent bones' (B, H, W) thick regions: list of (front, back, (H, W) bool), warnings."""
-    out, warnings = [], []
+    out, ties = [], []
+    adjacent = skeleton.adjacent_bones()
     nb = thick.shape[0]
     for i in range(nb):
         for j in range(i + 1, nb):
@@ -196,13 +221,16 @@ def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, adjacent: np.ndarray) -
             if not overlap.any():
                 continue
             if np.isclose(depth[i], depth[j]):
-                warnings.append(
-                    f"bones {i} and {j} overlap ({int(overlap.sum())} px) but have equal depth; "
-                    "no occlusion predicted there (give the joints different z or a manual mask)"
-                )
+                ties.append(f"{_bone_name(skeleton, i)} / {_bone_name(skeleton, j)} ({int(overlap.sum())} px)")
                 continue
             front, back = (i, j) if depth[i] < depth[j] else (j, i)
             out.append((front, back, overlap))
+    warnings = []
+    if ties:
+        warnings.append(
+            "bodies of non-adjacent bones overlap but the bones have equal depth, so no occlusion was "
+            f"predicted there: {', '.join(ties)}; fix: give the joints different z or paint an occlusion mask"
+        )
     return out, warnings
 
 
@@ -232,7 +260,7 @@ def predict_occlusion(
     thick = thick_regions(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
     adjacent = skeleton.adjacent_bones()
-    pairs, warnings = _pair_overlaps(thick, depth, adjacent)
+    pairs, warnings = _pair_overlaps(thick, depth, skeleton)
     union = np.zeros_like(foreground, dtype=bool)
     for _, _, overlap in pairs:
         union |= overlap
@@ -278,19 +306,18 @@ def snap_into(mask: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndar
 
 
 def manual_front_bones(
-    region: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+    region: np.ndarray, thick: np.ndarray, pose: np.ndarray, skeleton: Skeleton
 ) -> tuple[np.ndarray, float, list[str]]:
-    """(b,) int64 front bones of a manual (H, W) bool region, its depth, warnings.
+    """(b,) int64 front bones of a manual (H, W) bool region given the (B, H, W) thick_regions, its depth, warnings.
 
     The bones whose thick regions cover the region most (at least half the best cover) are candidates;
     the nearest candidate (min mean z) is in front, with its adjacent candidates.
     """
-    thick = thick_regions(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
     cover = (thick & region[None]).sum(axis=(1, 2))
     if cover.max() == 0:
-        cy, cx = np.argwhere(region).mean(axis=0)
-        dist = bone_distances(region.shape, pose, skeleton)[:, int(round(cy)), int(round(cx))]
+        centre = np.argwhere(region).mean(axis=0)[::-1]
+        dist = [segment_distance(centre, a, b) for a, b in _bone_ends(pose, skeleton)]
         main = int(np.argmin(dist))
         return np.array([main], np.int64), float(depth[main]), [
             f"manual occlusion region touches no bone's body; front bone = nearest bone {main} to its centre"
@@ -378,24 +405,26 @@ def build_masks(
 ) -> Masks:
     """Masks of a (H, W, C) float32 drawing at a (J, 3) pose; manual masks ((H, W) bool/float) override.
 
-    manual_occlusion None = predict; a list (even empty) = exactly those regions. `source` names the
-    keyframe file in errors.
+    manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
+    those regions. `source` names the keyframe file in errors.
     """
     fg = _foreground(drawing, manual_foreground, source)
     warnings = pose_warnings(fg, pose, skeleton)
-    if manual_occlusion is None:
+    predicted = manual_occlusion is None or len(manual_occlusion) == 0
+    if predicted:
         regions, fronts, w = predict_occlusion(fg, pose, skeleton)
         warnings += w
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w
         scored = []
+        thick = thick_regions(fg, pose, skeleton) if kept else None
         for r in kept:
-            front, depth, w = manual_front_bones(r, fg, pose, skeleton)
+            front, depth, w = manual_front_bones(r, thick, pose, skeleton)
             warnings += w
             scored.append((-depth, r, front))
         scored.sort(key=lambda s: s[0])  # stable: ties keep the file order
         regions, fronts = [s[1] for s in scored], [s[2] for s in scored]
-    n_manual = (manual_foreground is not None) + (manual_occlusion is not None)
+    n_manual = (manual_foreground is not None) + (not predicted)
     kind = {0: "predicted", 1: "mixed", 2: "manual"}[n_manual]
     return Masks(foreground=fg, occlusion=regions, front_bones=fronts, source=kind, warnings=warnings)

@@ -7,17 +7,18 @@ joins (t, alpha_i) to (t + 1, alpha_j) whenever alpha_j - alpha_i > -epsilon
 
 Decision on the edge cost: the paper's rule 0.5 (Q(t) + Q(t + 1)) depends
 only on t, so every path would pay exactly the same sum and the term could
-not influence the choice. We make it cell dependent:
+not influence the choice. We weight it by how far the path moves in alpha:
 
-    edge cost = 0.5 (Qc(t, alpha_i) + Qc(t + 1, alpha_j)) + q(t + 1, alpha_j)
-    Qc(t, alpha) = Q(t) * (2 min(alpha, 1 - alpha))^2
+    edge cost = 0.5 (Q(t) + Q(t + 1)) (T - 1) (alpha_j - alpha_i)^2 + q(t + 1, alpha_j)
 
-RIFE's flow for a blend at alpha scales with the distance to the nearer input
-frame (Q is measured at alpha = 1/2, where that distance is largest, and
-is quadratic in the flow), and cells at alpha 0 or 1 are the deformed frames
-themselves, with no interpolation at all. The path thus trades inpainted
-texture (q) against interpolation difficulty (Qc), which is what the paper's
-pair of terms is meant to do.
+Summed along a path, the Q part is the discrete Dirichlet energy of the
+blending schedule alpha(t) on normalized time, weighted by how much the two
+deformed sequences disagree (Q: divergence of the RIFE flow between them).
+A jump from alpha 0 to 1 in one frame (a visible pop) costs T - 1 times a
+steady cross-fade; the path moves alpha where the sequences agree and stays
+on the sequence with less inpainted texture (q) where they do not. (A cell
+cost Q(t) * f(alpha) alone would be free at alpha 0 and 1 and make that pop
+the optimum.)
 """
 from __future__ import annotations
 
@@ -30,11 +31,10 @@ from .types import BlendPath
 ABRUPT_FLOOR = 1e-6  # step costs below this are never abrupt (an all-zero shot flags nothing)
 
 
-def interpolation_cost(Q: np.ndarray, alphas: np.ndarray) -> np.ndarray:
-    """Q: (T,) flow cost at alpha 1/2, alphas: (A,) -> (T, A) Qc = Q(t) (2 min(alpha, 1 - alpha))^2."""
-    a = np.asarray(alphas, dtype=np.float64)
-    scale = (2.0 * np.minimum(a, 1.0 - a)).clip(min=0.0) ** 2
-    return np.asarray(Q, dtype=np.float64)[:, None] * scale[None, :]
+def transition_cost(Q: np.ndarray, alpha_from: np.ndarray, alpha_to: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Q: (T,), alphas (...,) of the step t -> t + 1 (t (...,) int) -> (...,) 0.5 (Q(t) + Q(t+1)) (T-1) dalpha^2."""
+    n_steps = len(Q) - 1
+    return 0.5 * (Q[t] + Q[t + 1]) * n_steps * (np.asarray(alpha_to) - np.asarray(alpha_from)) ** 2
 
 
 def _check(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -61,9 +61,8 @@ def path_cost(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray,
     """q: (T, A), Q: (T,), alphas: (A,), alpha_index: (T,) int -> (total cost, (T - 1,) step costs)."""
     q, Q, alphas = _check(q, Q, alphas)
     idx = np.asarray(alpha_index, dtype=np.int64)
-    t = np.arange(q.shape[0])
-    qc = interpolation_cost(Q, alphas)[t, idx]
-    steps = 0.5 * (qc[:-1] + qc[1:]) + q[t[1:], idx[1:]]
+    t = np.arange(q.shape[0] - 1)
+    steps = transition_cost(Q, alphas[idx[:-1]], alphas[idx[1:]], t) + q[t + 1, idx[1:]]
     return float(q[0, idx[0]] + steps.sum()), steps
 
 
@@ -80,9 +79,8 @@ def _graph(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, epsilon: float) -> 
     n_t, n_a = q.shape
     ok = (alphas[None, :] - alphas[:, None]) > -epsilon  # (A_from, A_to) allowed moves
     src_a, dst_a = np.nonzero(ok)
-    qc = interpolation_cost(Q, alphas)
     t = np.arange(n_t - 1)[:, None]
-    cost = 0.5 * (qc[t, src_a[None]] + qc[t + 1, dst_a[None]]) + q[t + 1, dst_a[None]]
+    cost = transition_cost(Q, alphas[src_a][None], alphas[dst_a][None], t) + q[t + 1, dst_a[None]]
     rows = (t * n_a + src_a[None]).ravel()
     cols = ((t + 1) * n_a + dst_a[None]).ravel()
     # Explicitly stored zeros are edges for csgraph, so zero-cost moves survive.

@@ -47,7 +47,11 @@ def flow_divergence(flow: np.ndarray) -> np.ndarray:
 
 
 def interpolation_quality(flows: np.ndarray, weight: np.ndarray | None = None) -> np.ndarray:
-    """flows: (T, H, W, 4) RIFE flows at alpha 1/2, weight: (T, H, W) or None -> (T,) float64 sum |div v|^2."""
+    """flows: (T, H, W, 4) RIFE flows at alpha 1/2, weight: (T, H, W) or None -> (T,) float64 Q(t).
+
+    Q(t) = integral of |div v|^2 over the image taken as the unit square, i.e. the pixel sum / (H W):
+    div v is scale-free, so Q does not grow with the resolution of the shot.
+    """
     flows = np.asarray(flows)
     if flows.ndim != 4 or flows.shape[3] != 4:
         raise ValueError(f"flows must be (T, H, W, 4), got {flows.shape}")
@@ -58,7 +62,7 @@ def interpolation_quality(flows: np.ndarray, weight: np.ndarray | None = None) -
         d2 = flow_divergence(flows[t, ..., 0:2]) ** 2 + flow_divergence(flows[t, ..., 2:4]) ** 2
         if weight is not None:
             d2 = d2 * np.asarray(weight[t], dtype=np.float64)
-        out[t] = d2.sum()
+        out[t] = d2.sum() / d2.size
     return out
 
 

@@ -8,7 +8,9 @@ boundary is held in place; the deformed polygon is rasterized back into a
 mask inside the foreground. Boundaries are closed polylines (first != last)
 with positive shoelace area in image coordinates (the mesh's face
 orientation), simplified by Douglas-Peucker with a 2 px tolerance, and each
-T-junction is a vertex of its region's polyline.
+T-junction is a vertex of its region's polyline. Polyline vertices lie on the
+centres of the region's outermost pixels (cv2.findContours), so `rasterize`
+(boundary-inclusive fill) of an unsimplified boundary gives the mask back.
 """
 from __future__ import annotations
 
@@ -28,6 +30,7 @@ DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
 MERGE_CLICKS_PX = 4.0  # clicks this close are one junction clicked several times
 ASSOCIATE_PX = 12.0  # a junction farther than this from every region boundary belongs to none
 SEGMENT_PX = 4.0  # boundary edge length of the deformation mesh
+MESH_DP_EPS_PX = 0.75  # tolerance of the contour the deformation mesh is built on
 
 
 # ---------------------------------------------------------------- polylines
@@ -262,7 +265,8 @@ def refine_region(
     P = _orient(_largest_contour(mask))
     if len(P) < 3:
         raise ValueError("refine_region: the region is too thin to triangulate")
-    B = _deform_boundary(simplify(P)[0], J, warnings)
+    # a fine pre-simplification, so that only the final 2 px pass departs visibly from the contour
+    B = _deform_boundary(simplify(P, MESH_DP_EPS_PX)[0], J, warnings)
     B = _orient(B)  # mesh loops follow the faces' positive orientation; guard anyway
     if polygon_area(B) <= 0:
         raise ValueError("refine_region: the deformed boundary is degenerate")

@@ -296,7 +296,7 @@ def source_versions(shot: Shot) -> dict[str, str]:
     """Content hash of exactly what each source asset covers.
 
     Keys: 'key{k}/drawing' (image + manual masks), 'key{k}/pose' (skeleton + that keyframe's pose),
-    'key{k}/t_junctions', 'motion' (skeleton + every output pose and time).
+    'key{k}/t_junctions', 'motion' (skeleton + every output pose and time), 'ground_truth' (reference frames).
     """
     sk = [list(shot.skeleton.joints), shot.skeleton.parents.tolist()]
     out = {}
@@ -306,4 +306,6 @@ def source_versions(shot: Shot) -> dict[str, str]:
         out[f"key{k}/pose"] = _digest(sk, shot.key_pose(k).round(6).tolist())
         out[f"key{k}/t_junctions"] = _digest(shot.t_junctions[k].round(6).tolist())
     out["motion"] = _digest(sk, shot.times.round(9).tolist(), shot.poses.round(6).tolist())
+    gt = sorted(Path(shot.ground_truth).glob("*.png")) if shot.ground_truth else []
+    out["ground_truth"] = _digest(*[x for p in gt for x in (p.name, p.read_bytes())]) if gt else _digest("<none>")
     return out

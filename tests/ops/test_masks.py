@@ -71,10 +71,13 @@ def ellipse_mask(shape, center, axes) -> np.ndarray:
     return m > 0
 
 
-def test_outlined_ellipse_becomes_filled_silhouette():
+@pytest.mark.parametrize("shade", [0.0, 0.2, 0.5])
+def test_outlined_ellipse_becomes_filled_silhouette(shade: float):
     filled = ellipse_mask((128, 128), (64, 60), (40, 28))
     ring = filled & ~cv2.erode(filled.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
-    fg = foreground_mask(ink_drawing(ring))
+    drawing = ink_drawing(ring)
+    drawing *= 1.0 - shade * np.linspace(0, 1, 128, dtype=np.float32)[None, :, None]  # uneven lighting
+    fg = foreground_mask(drawing)
     assert iou(fg, filled) > 0.97
 
 
@@ -214,3 +217,29 @@ def test_snap_into_matches_brute_force():
         best = np.linalg.norm(inside - np.clip(np.round(p), 0, 63), axis=1).min()
         assert mask[int(q[1]), int(q[0])]
         assert np.linalg.norm(q - np.clip(np.round(p), 0, 63)) == pytest.approx(best)
+
+
+def test_bone_regions_and_thick_regions_match_brute_force():
+    drawing, pose, skeleton, _, _, _ = crossing_scene(128)
+    fg = foreground_mask(drawing)
+    ys, xs = np.mgrid[0:128, 0:128]
+    grid = np.stack([xs, ys], -1).astype(float)
+    ends = pose[:, :2][skeleton.bones]
+    dist = np.stack([segment_distance(grid, a, b) for a, b in ends])  # (B, H, W) full-image fast path
+    r = bone_radii(fg, pose, skeleton)
+    thick_bf = (dist <= r[:, None, None] + 1.5) & fg
+    near = np.argmin(dist, axis=0)
+    vor_bf = (near == np.arange(len(r))[:, None, None]) & (dist <= 1.6 * r[:, None, None]) & fg
+    assert np.array_equal(thick_regions(fg, pose, skeleton), thick_bf)
+    assert np.array_equal(bone_regions(fg, pose, skeleton), vor_bf)
+
+
+def test_solid_ink_fill_is_foreground():
+    filled = ellipse_mask((128, 128), (64, 60), (40, 28))
+    assert iou(foreground_mask(ink_drawing(filled)), filled) > 0.97
+
+
+def test_opaque_rgba_drawing_uses_the_ink_not_the_alpha():
+    filled = ellipse_mask((128, 128), (64, 60), (40, 28))
+    rgba = np.concatenate([ink_drawing(outline(filled)), np.ones((128, 128, 1), np.float32)], axis=2)
+    assert iou(foreground_mask(rgba), filled) > 0.97

@@ -55,11 +55,11 @@ def test_interpolation_quality_sums_both_flows_and_weight():
     flows[2, ..., 2], flows[2, ..., 3] = -s1 * x, -s1 * y    # div = -2 s1
     flows[2, ..., 0] = 4.0                                     # translation adds nothing
     Q = interpolation_quality(flows)
-    np.testing.assert_allclose(Q, [0.0, (2 * s0) ** 2 * H * W, (2 * s1) ** 2 * H * W], rtol=1e-12)
+    np.testing.assert_allclose(Q, [0.0, (2 * s0) ** 2, (2 * s1) ** 2], rtol=1e-12)
     weight = np.zeros((3, H, W), bool)
     weight[:, :10, :5] = True
     Qw = interpolation_quality(flows, weight)
-    np.testing.assert_allclose(Qw, [0.0, (2 * s0) ** 2 * 50, (2 * s1) ** 2 * 50], rtol=1e-12)
+    np.testing.assert_allclose(Qw, [0.0, (2 * s0) ** 2 * 50 / (H * W), (2 * s1) ** 2 * 50 / (H * W)], rtol=1e-12)
 
 
 def test_coverage_weight_is_union():

@@ -107,6 +107,8 @@ def test_refine_region_passes_through_junctions():
     assert not (refined & ~fg).any()
     assert abs(int(refined.sum()) - int(m.sum())) < 0.15 * m.sum()
     assert polygon_area(P) > 0 and not np.array_equal(P[0], P[-1])
+    far = np.linalg.norm(P[:, None] - normals_off[None], axis=2).min(axis=1) > 20
+    assert far.sum() >= 2 and point_to_polyline(P[far], raw).max() <= 1.0  # held away from the junctions
     # the raster follows the polyline: each junction pixel is now inside or on the region's edge
     for x, y in normals_off:
         assert refined[int(round(y)) - 1 : int(round(y)) + 2, int(round(x)) - 1 : int(round(x)) + 2].any()
@@ -148,3 +150,20 @@ def test_refine_masks_on_crossing_improves_the_prediction():
     assert polygon_area(refined.foreground_boundary) > 0
     assert len(refined.occlusion) == len(refined.front_bones) == len(refined.boundaries) == len(refined.junctions)
     assert refined.warnings[: len(masks.warnings)] == masks.warnings
+
+
+def test_two_junctions_projecting_onto_one_corner_get_distinct_vertices():
+    fg = np.ones((96, 96), bool)
+    m = np.zeros_like(fg)
+    m[30:60, 30:60] = True
+    J = np.array([[61.0, 27.0], [64.0, 29.0]])  # both nearest to the corner (59, 30)
+    refined, P, idx = refine_region(m, J, fg)
+    assert len(np.unique(idx)) == 2
+    d = np.linalg.norm(P[idx][:, None] - J[None], axis=2).min(axis=1)
+    assert d.max() <= 0.5
+    assert abs(int(refined.sum()) - int(m.sum())) < 0.15 * m.sum()
+
+
+def test_rasterize_inverts_the_raw_contour():
+    m = blob()
+    assert np.array_equal(rasterize(raw_contour(m), m.shape), m)
