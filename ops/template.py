@@ -134,6 +134,12 @@ def build_template(
     region = _face_regions(res.V, res.F, boundaries, warnings)
     layer = _handle_layers(res.V[res.point_vertex], W, skeleton, refined, len(boundaries))
     junctions = [np.unique(np.asarray(refined.junctions[r], dtype=np.int64)) for r in range(len(boundaries))]
+    for r, jn in enumerate(junctions):
+        if len(jn) and (jn.min() < 0 or jn.max() >= len(boundaries[r])):
+            raise ValueError(f"occlusion region {r}: T-junction index outside its {len(boundaries[r])}-vertex boundary")
+        if len(jn) % 2 and len(jn) == len(boundaries[r]):
+            warnings.append(f"occlusion region {r}: every boundary vertex is a T-junction, no room for a cusp; dropped one")
+            junctions[r] = jn[:-1]
     bvert = res.loop_vertex[1:]
     for r, (bv, jn) in enumerate(zip(bvert, junctions)):
         if (bv[jn] < 0).any():

@@ -147,6 +147,7 @@ class _Search:
     """Memoized topology evaluation: every distinct combination of region choices is solved once."""
 
     def __init__(self, base: TemplateBase, targets: np.ndarray):
+        """base: the front-sheet template; targets: (h, 2) handle targets at the other pose, pixels."""
         self.base, self.targets = base, targets
         self.cache: dict[tuple, tuple[float, Incised, list[Assignment]]] = {}
 
@@ -162,6 +163,7 @@ class _Search:
 def _region_optimum(search: _Search, choice: list[int], r: int, options: list, n_opt: int, k: int, seed: int) -> int:
     """Best option index for region r with the other regions fixed: exhaustive (even k) or TPE (odd k)."""
     def energy(i: int) -> float:
+        """Energy with region r set to option i."""
         return search.score(tuple(choice[:r] + [i] + choice[r + 1:]), options)
 
     if k % 2 == 0:
@@ -171,6 +173,7 @@ def _region_optimum(search: _Search, choice: list[int], r: int, options: list, n
     study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed + r))
 
     def objective(trial: optuna.Trial) -> float:
+        """Optuna objective: energy of the suggested (cusp, starting side) option, finite."""
         e = energy(trial.suggest_categorical("option", list(range(n_opt))))
         return e if np.isfinite(e) else _FAILED
 
