@@ -67,13 +67,15 @@ def _fill_chunk(chunk: np.ndarray, rife: Rife, depth: int, batch: int) -> np.nda
 
 
 def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray, rife: Rife,
-                       depth: int = 3, batch: int = 8, out: np.ndarray | None = None,
+                       depth: int = 3, batch: int = 1, out: np.ndarray | None = None,
                        flows_out: np.ndarray | None = None) -> ImageMatrix:
     """frames0, frames1: (T, H, W, 4) straight RGBA -> ImageMatrix with frames (T, 2**depth + 1, H, W, 4).
 
-    `batch` bounds the images per RIFE call; rows are processed in chunks of
-    `batch` rows, so beyond `out` (optionally a np.memmap) and `flows_out`
-    ((T, H, W, 4), likewise) only one chunk is held in memory.
+    `batch` bounds the image pairs per RIFE call; rows are processed in chunks
+    of `batch` rows, so beyond `out` (optionally a np.memmap) and `flows_out`
+    ((T, H, W, 4), likewise) only one chunk is held in memory. On a CPU one
+    pair per call is fastest (larger batches fall out of cache: 0.28 s vs
+    0.17 s per 384 px pair on 2 cores at batch 8 vs 1); on a GPU use 8 or more.
     """
     _check_inputs(frames0, frames1, times)
     if batch < 1:

