@@ -55,7 +55,7 @@ def _refined(k: int):
         """Occlusion masks deformed so their boundaries pass through the T-junctions (§4.1)."""
         masks: Masks = env.read(f"key{k}/masks")
         refined = refine_masks(masks, env.shot.t_junctions[k])
-        for w in refined.warnings:
+        for w in refined.warnings[len(masks.warnings):]:  # the masks stage already logged its own
             env.context.log.warning(w)
         pts = [b[j] for b, j in zip(refined.boundaries, refined.junctions)]
         meta = {"regions": len(refined.occlusion), "t_junctions": int(sum(len(j) for j in refined.junctions)),

@@ -69,3 +69,12 @@ def test_ssim_drops_with_noise():
     noisy = a.copy(); noisy[..., :3] = np.clip(a[..., :3] + rng.normal(0, 0.2, a[..., :3].shape), 0, 1)
     s = ssim(a, noisy)
     assert 0.0 < s < 0.9
+
+
+def test_psnr_reads_rgba_as_drawn_on_white():
+    transparent = np.zeros((8, 8, 4))              # RGB black but fully transparent = blank paper
+    paper = np.ones((8, 8, 4))
+    assert psnr(transparent, paper) == np.inf
+    ink = paper.copy()
+    ink[0, 0, :3] = 0.0                             # one opaque black pixel out of 64
+    assert psnr(ink, paper) == pytest.approx(10 * np.log10(64 * 3 / 3), rel=1e-9)
