@@ -28,6 +28,8 @@ from typing import Callable
 import cv2
 import numpy as np
 
+from ops.shot import interpolate_pose as _loader_interpolate
+
 FORMAT = "inbetween-shot/1"
 FRAMES = 9  # output frames per shot, both keyframes included
 SS = 4  # supersampling factor of the rasterizer
@@ -129,32 +131,9 @@ def forward(parents: list[int], root: tuple[float, float], world_deg: dict[int, 
     return out
 
 
-def _local(pose: np.ndarray, parents: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """(J,) bone angle relative to the parent bone (rad; absolute under the root) and (J,) bone length."""
-    d = np.array([pose[c, :2] - pose[p, :2] if p >= 0 else [1.0, 0.0] for c, p in enumerate(parents)])
-    world = np.arctan2(d[:, 1], d[:, 0])
-    local = np.array([world[c] - (world[p] if p >= 0 and parents[p] >= 0 else 0.0)
-                      for c, p in enumerate(parents)])
-    return local, np.linalg.norm(d, axis=1)
-
-
 def interpolate_pose(a: np.ndarray, b: np.ndarray, s: float, parents: list[int]) -> np.ndarray:
-    """(J, 3) pose at fraction s: per-bone relative angle (shortest arc) and length along the
-    hierarchy, root position and all depths linear (the rule of ops.shot.interpolate_pose)."""
-    la, lena = _local(a, parents)
-    lb, lenb = _local(b, parents)
-    local = la + s * ((lb - la + math.pi) % (2 * math.pi) - math.pi)
-    length = (1 - s) * lena + s * lenb
-    out = np.empty_like(a)
-    out[:, 2] = (1 - s) * a[:, 2] + s * b[:, 2]
-    world = np.zeros(len(parents))
-    for c, p in enumerate(parents):
-        if p < 0:
-            out[c, :2] = (1 - s) * a[c, :2] + s * b[c, :2]
-            continue
-        world[c] = local[c] + (world[p] if parents[p] >= 0 else 0.0)
-        out[c, :2] = out[p, :2] + length[c] * np.array([math.cos(world[c]), math.sin(world[c])])
-    return out
+    """(J, 3) pose at fraction s, by the shot loader's own rule, so ground truth matches what it computes."""
+    return _loader_interpolate(a, b, s, np.asarray(parents, dtype=np.int64))
 
 
 def quantize(pose: np.ndarray) -> np.ndarray:

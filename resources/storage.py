@@ -121,13 +121,13 @@ def _load(d: Path, prefix: str, arrays, meta: dict) -> Any:
     return cls(**kwargs)
 
 
-def write_value(path: Path, value: Any) -> str:
-    """Write a stage output atomically into directory `path`; returns its content hash."""
+def write_value(path: Path, value: Any, digest: str | None = None) -> str:
+    """Write a stage output atomically into directory `path`; returns its content hash (given or computed)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.parent / f".tmp-{path.name}-{uuid.uuid4().hex[:8]}"
     tmp.mkdir()
     try:
-        digest = content_hash(value)
+        digest = digest or content_hash(value)
         meta: dict = {"hash": digest}
         if isinstance(value, pd.DataFrame):
             value.to_parquet(tmp / "table.parquet")
@@ -178,9 +178,10 @@ class StageStore(dg.ConfigurableIOManager):
 
     def handle_output(self, context: dg.OutputContext, obj: Any) -> None:
         path = self.path(context.asset_key, context.partition_key)
-        if stored_hash(path) == content_hash(obj):  # unchanged output: keep the file, skip the write
+        digest = content_hash(obj)
+        if stored_hash(path) == digest:  # unchanged output: keep the file, skip the write
             return
-        write_value(path, obj)
+        write_value(path, obj, digest)
 
     def load_input(self, context: dg.InputContext) -> Any:
         return self.read(context.asset_key, context.partition_key)
