@@ -93,7 +93,7 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, blend: str = "optimal", 
     from ops.shot import load_shot
 
     from .graph import STAGES
-    from .provenance import asset_key
+    from .provenance import asset_key, to_run
 
     start = time.perf_counter()
     shot = load_shot(shot_dir)  # validate before touching anything
@@ -101,7 +101,7 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, blend: str = "optimal", 
     partition = session.register(Path(shot_dir))
     session.observe(partition)
     statuses = session.statuses(partition)
-    names = [n for n in STAGES if n in set(_to_run(statuses))]
+    names = to_run(statuses)
     executed: dict[str, dict] = {}
     if names:
         result = session.materialize(partition, names)
@@ -133,12 +133,6 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, blend: str = "optimal", 
                                              for i in range(len(chosen.abrupt)) if chosen.abrupt[i]]}
     _write_json(out / "report.json", report)
     return report
-
-
-def _to_run(statuses):
-    from .provenance import to_run
-
-    return to_run(statuses)
 
 
 def _batch_worker(shot_dir: str, out_dir: str, blend: str, template: str) -> tuple[str, dict | None, str | None]:

@@ -26,7 +26,7 @@ from ops.image_io import read_image, to_rgba, write_image
 from ops.types import Shot
 from resources.settings import PipelineSettings
 from resources.shots import ShotsResource
-from resources.storage import StageStore, content_hash
+from resources.storage import StageStore, content_hash, stored_hash
 
 from .graph import ALL_PARENTS, SOURCES
 from .provenance import INPUTS_KEY, asset_key, current_inputs, last_inputs
@@ -136,7 +136,7 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, uses: 
         last_version, last_recorded = last_inputs(context.instance, name, partition)
         start = time.perf_counter()
         cached = (last_recorded == inputs and last_version is not None
-                  and env.store.exists(key, partition) and _stored_version(env, key) == last_version)
+                  and stored_hash(env.store.path(key, partition)) == last_version)
         if cached:  # identical inputs and intact output: nothing to compute
             value = env.read(name)
             result = StageResult(value, {})
@@ -161,12 +161,6 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, uses: 
                                       metadata={"detail": dg.MetadataValue.text(text)})
 
     return _asset
-
-
-def _stored_version(env: StageEnv, key: dg.AssetKey) -> str | None:
-    from resources.storage import stored_hash
-
-    return stored_hash(env.store.path(key, env.partition))
 
 
 def source_assets(versions_fn: Callable[[ShotsResource, str], dict[str, str]]) -> list:

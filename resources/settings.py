@@ -12,7 +12,6 @@ class PipelineSettings(dg.ConfigurableResource):
     grad_tol: float = Field(0.01, description="Stop the quasi-Newton solver at this gradient norm (§4.3).")
     max_iter: int = Field(5000, description="Iteration cap of the deformation solver (§4.3).")
     seed: int = Field(0, description="Seed of optuna's TPE sampler for odd T-junction counts (§4.4).")
-    max_trials: int = Field(30, description="Topologies tried per region with an odd number of T-junctions.")
     epsilon: float = Field(0.02, description="Path may step back in alpha by less than this (§5.2).")
     alpha_depth: int = Field(3, description="Recursive RIFE bisection depth: alpha grid of 2**depth + 1 values.")
     supersample: int = Field(2, description="Renderer supersampling factor per axis (anti-aliasing).")
