@@ -5,10 +5,11 @@ import numpy as np
 import pandas as pd
 
 from ops import preview
-from ops.image_matrix import build_image_matrix
-from ops.output import matrix_contact_sheet
-from ops.path import diagonal_path, optimal_path
-from ops.quality import coverage_weight, inpainted_share, interpolation_quality, quality_table, texture_quality
+from ops.blending.contact_sheet import matrix_contact_sheet
+from ops.blending.image_matrix import build_image_matrix
+from ops.blending.path import diagonal_path, optimal_path
+from ops.blending.quality import coverage_weight, inpainted_share, interpolation_quality, quality_table, texture_quality
+from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
 from .stage import StageEnv, StageResult, stage_asset
@@ -78,7 +79,7 @@ def _frames(env: StageEnv) -> StageResult:
     blend = env.settings.blend
     chosen = paths.optimal if blend == "optimal" else paths.diagonal
     T = len(matrix.times)
-    frames = np.stack([matrix.frames[t, chosen.alpha_index[t]] for t in range(T)]).astype(np.float32)
+    frames = select_frames(matrix.frames, chosen.alpha_index)
     out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
     sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
                                  paths.diagonal.alpha_index, thumb=72)
@@ -88,10 +89,8 @@ def _frames(env: StageEnv) -> StageResult:
 
 def blending_assets() -> list:
     return [
-        stage_asset("rife_matrix", _rife_matrix, uses=("alpha_depth",), modules=("ops.rife", "ops.image_matrix"),
-                    resources=("rife",)),
-        stage_asset("quality_metrics", _quality, modules=("ops.quality",)),
-        stage_asset("optimal_path", _paths, uses=("epsilon",), modules=("ops.path",),
-                    checks={"path_endpoints_and_monotone_t": _check_path}),
-        stage_asset("inbetween_frames", _frames, uses=("blend",), modules=("ops.output",)),
+        stage_asset("rife_matrix", _rife_matrix, resources=("rife",)),
+        stage_asset("quality_metrics", _quality),
+        stage_asset("optimal_path", _paths, checks={"path_endpoints_and_monotone_t": _check_path}),
+        stage_asset("inbetween_frames", _frames),
     ]

@@ -1,61 +1,44 @@
-"""The Dagster Definitions: assets of both lanes and the blending, resources, sensor, jobs.
+"""The Dagster Definitions: assets of both lanes and the blending, resources, sensor, jobs, loggers.
 
 Paths come from the environment so the UI (`dagster dev -w workspace.yaml`)
-and the `inbetween` CLI share one instance and one storage:
+and the `inbetween` CLI share one instance and one storage (assets/home.py):
   INBETWEEN_HOME   default ./.inbetween  (dagster/ = DAGSTER_HOME, storage/, shots.json)
   INBETWEEN_SHOTS  default ./data_samples (scanned by the sensor)
 """
 from __future__ import annotations
 
+import logging
 import os
 from pathlib import Path
 
 import dagster as dg
 
-from ops.shot import source_versions
-from resources.inpainter import InpainterResource
-from resources.rife import RifeResource
+from ops.settings import Settings
+from ops.shotio.versions import source_versions
 from resources.settings import PipelineSettings
 from resources.shots import ShotsResource
 from resources.storage import StageStore
 
 from .blending import blending_assets
+from .codeversion import project_fingerprint
 from .evaluation import evaluation_assets
 from .geometry import lane_assets
 from .graph import EVAL_STAGES, SOURCES
-from .provenance import asset_key
-from .stage import PARTITIONS, source_assets
+from .home import home, shots_root
+from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets
 
-DAGSTER_YAML = """\
-# Written by inbetween: local SQLite storage, no telemetry. See docs/production.md for Postgres.
-telemetry:
-  enabled: false
-"""
+# the sources this process defines its stages from (assets/runs.py compares it with the files on disk)
+LOADED_FINGERPRINT = project_fingerprint()
 
 
-def home() -> Path:
-    return Path(os.environ.get("INBETWEEN_HOME", Path.cwd() / ".inbetween")).resolve()
-
-
-def ensure_home() -> Path:
-    """Create the project-local home and point DAGSTER_HOME at it unless the user set one."""
-    h = home()
-    dh = Path(os.environ.setdefault("DAGSTER_HOME", str(h / "dagster")))
-    dh.mkdir(parents=True, exist_ok=True)
-    if not (dh / "dagster.yaml").exists():
-        (dh / "dagster.yaml").write_text(DAGSTER_YAML)
-    return h
-
-
-def build_resources(settings: PipelineSettings | None = None) -> dict:
+def build_resources(settings: Settings | None = None) -> dict:
     h = home()
     return {
         "io_manager": StageStore(root=str(h / "storage")),
-        "shots": ShotsResource(shots_root=str(Path(os.environ.get("INBETWEEN_SHOTS", "data_samples")).resolve()),
-                               registry=str(h / "shots.json")),
-        "settings": settings or PipelineSettings(),
-        "rife": RifeResource(device=os.environ.get("INBETWEEN_DEVICE", "cpu")),
-        "inpainter": InpainterResource(),
+        "shots": ShotsResource(shots_root=str(shots_root()), registry=str(h / "shots.json")),
+        "settings": PipelineSettings(**(settings or Settings()).as_dict()),
+        "rife": RESOURCE_TYPES["rife"](device=os.environ.get("INBETWEEN_DEVICE", "cpu")),
+        "inpainter": RESOURCE_TYPES["inpainter"](),
     }
 
 
@@ -85,9 +68,25 @@ def shot_directories(context: dg.SensorEvaluationContext, shots: ShotsResource):
                            dynamic_partitions_requests=[PARTITIONS.build_add_request(new)] if new else [])
 
 
-def build_definitions(settings: PipelineSettings | None = None) -> dg.Definitions:
+@dg.logger({"path": dg.Field(str, is_required=False), "log_level": dg.Field(str, default_value="DEBUG")},
+           description="Dagster's event log of a run as text, in a file (the CLI prints its path on failure).")
+def file_logger(init_context: dg.InitLoggerContext) -> logging.Logger:
+    path = Path(init_context.logger_config.get("path") or home() / "logs" / "dagster.log")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    log = logging.getLogger(f"inbetween.file.{path}")
+    log.setLevel(init_context.logger_config["log_level"])
+    log.propagate = False  # the file only: the console logger decides what the terminal shows
+    if not log.handlers:
+        handler = logging.FileHandler(path)
+        handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(message)s"))
+        log.addHandler(handler)
+    return log
+
+
+def build_definitions(settings: Settings | None = None) -> dg.Definitions:
     return dg.Definitions(assets=ALL_ASSETS, jobs=[observe_job, shot_job, evaluation_job], sensors=[shot_directories],
-                          resources=build_resources(settings))
+                          resources=build_resources(settings),
+                          loggers={"console": dg.colored_console_logger, "file": file_logger})
 
 
 defs = build_definitions()

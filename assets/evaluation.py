@@ -7,10 +7,11 @@ import numpy as np
 import pandas as pd
 
 from ops import preview
-from ops.evaluate import along, blend_sequences, compare, cross_dissolve, rife_direct, summarize
-from ops.image_io import read_image, to_rgba
-from ops.lane import deform_lane, texture_lane
-from ops.topology import optimize_topology
+from ops.appearance.lane import deform_lane, texture_lane
+from ops.blending.select import select_frames
+from ops.evaluation.baselines import blend_sequences, compare, cross_dissolve, rife_direct, summarize
+from ops.geometry.topology import optimize_topology
+from ops.shotio.image_io import read_image, to_rgba
 from ops.types import BlendPaths, ImageMatrix, OutputFrames
 
 from .stage import StageEnv, StageResult, stage_asset
@@ -38,7 +39,7 @@ def _single_layer(env: StageEnv) -> StageResult:
                                    shot.key_pose(1 - k), inpainter, s.mu, s.grad_tol, s.max_iter)
         seqs.append(deform_lane(textured, shot.times, shot.poses, k == 1, shot.size, s.mu, s.supersample))
     matrix, paths = blend_sequences(seqs[0], seqs[1], env.resource("rife").load(), s.alpha_depth, s.epsilon)
-    frames = along(matrix, paths.optimal.alpha_index)
+    frames = select_frames(matrix.frames, paths.optimal.alpha_index)
     out = OutputFrames(matrix.times.copy(), matrix.alphas[paths.optimal.alpha_index].copy(), frames, "single_layer")
     return StageResult(out, {"cost_optimal": float(paths.optimal.cost)}, preview.frame_strip(frames))
 
@@ -68,8 +69,8 @@ def _metrics(env: StageEnv) -> StageResult:
     matrix: ImageMatrix = env.read("rife_matrix")
     paths: BlendPaths = env.read("optimal_path")
     methods = {
-        "ours": along(matrix, paths.optimal.alpha_index),
-        "ours_diagonal": along(matrix, paths.diagonal.alpha_index),
+        "ours": select_frames(matrix.frames, paths.optimal.alpha_index),
+        "ours_diagonal": select_frames(matrix.frames, paths.diagonal.alpha_index),
         "single_layer": env.read("evaluation/single_layer").frames,
         "rife_direct": env.read("evaluation/rife_direct").frames,
         "cross_dissolve": cross_dissolve(env.drawing(0), env.drawing(1), shot.times),
@@ -84,12 +85,7 @@ def _metrics(env: StageEnv) -> StageResult:
 
 def evaluation_assets() -> list:
     return [
-        stage_asset("evaluation/rife_direct", _rife_direct, uses=("alpha_depth",),
-                    modules=("ops.evaluate", "ops.rife", "ops.image_matrix"), resources=("rife",), group="evaluation"),
-        stage_asset("evaluation/single_layer", _single_layer,
-                    uses=("mu", "seed", "grad_tol", "max_iter", "supersample", "alpha_depth", "epsilon"),
-                    modules=("ops.evaluate", "ops.lane", "ops.topology", "ops.template", "ops.deform", "ops.render",
-                             "ops.texture", "ops.rife", "ops.path", "ops.quality"),
-                    resources=("rife", "inpainter"), group="evaluation"),
-        stage_asset("evaluation/metrics", _metrics, modules=("ops.evaluate", "ops.metrics"), group="evaluation"),
+        stage_asset("evaluation/rife_direct", _rife_direct, resources=("rife",), group="evaluation"),
+        stage_asset("evaluation/single_layer", _single_layer, resources=("rife", "inpainter"), group="evaluation"),
+        stage_asset("evaluation/metrics", _metrics, group="evaluation"),
     ]

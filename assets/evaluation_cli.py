@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 
 from ops import preview
-from ops.evaluate import METHODS, summarize
-from ops.image_io import read_image, to_rgba, write_image
+from ops.evaluation.baselines import METHODS, summarize
+from ops.shotio.image_io import read_image, to_rgba, write_image
 
 
 def _markdown(df: pd.DataFrame) -> str:
@@ -27,9 +27,7 @@ def _markdown(df: pd.DataFrame) -> str:
 
 
 def evaluate_root(root: str | Path, out: str | Path | None = None) -> int:
-    from .cli import Session, run_shot
-    from .graph import EVAL_STAGES
-    from .provenance import asset_key, to_run
+    from .runs import evaluate_stages, run_shot, store
 
     root = Path(root)
     out = Path(out) if out else root.parent / "eval"
@@ -37,21 +35,14 @@ def evaluate_root(root: str | Path, out: str | Path | None = None) -> int:
     shots = sorted(d for d in root.iterdir() if (d / "shot.json").is_file()
                    and json.loads((d / "shot.json").read_text()).get("ground_truth"))
     tables, figure_rows = [], []
-    session = None
+    st = store()
     for d in shots:
         run_shot(d, out / "runs" / d.name)
-        session = session or Session()
-        partition = session.register(d)
-        names = to_run(session.statuses(partition, EVAL_STAGES), EVAL_STAGES)
-        if names:
-            result = session.materialize(partition, names)
-            if not result.success:
-                print(f"error: {d}: evaluation failed", file=sys.stderr)
-                return 1
-        table = session.store.read(asset_key("evaluation/metrics"), partition)
+        partition = evaluate_stages(d)
+        table = st.read("evaluation/metrics", partition)
         tables.append(table.assign(shot=d.name))
         if json.loads((d / "shot.json").read_text()).get("t_junctions", [[], []]) != [[], []]:
-            figure_rows.append(_figure_row(session, partition, d))
+            figure_rows.append(_figure_row(st, partition, d))
     if not tables:
         print(f"error: {root}: no shot with a ground_truth folder", file=sys.stderr)
         return 2
@@ -71,17 +62,15 @@ def evaluate_root(root: str | Path, out: str | Path | None = None) -> int:
     return 0
 
 
-def _figure_row(session, partition: str, shot_dir: Path) -> np.ndarray:
+def _figure_row(st, partition: str, shot_dir: Path) -> np.ndarray:
     """keys, ground truth, ours, RIFE-direct at the middle frame, one labelled row."""
-    from ops.shot import load_shot
-
-    from .provenance import asset_key
+    from ops.shotio.load import load_shot
 
     shot = load_shot(shot_dir)
     mid = len(shot.times) // 2
     gt = sorted(Path(shot.ground_truth).glob("*.png"))[mid]
-    ours = session.store.read(asset_key("inbetween_frames"), partition).frames[mid]
-    direct = session.store.read(asset_key("evaluation/rife_direct"), partition).frames[mid]
+    ours = st.read("inbetween_frames", partition).frames[mid]
+    direct = st.read("evaluation/rife_direct", partition).frames[mid]
     keys = [to_rgba(read_image(p)) for p in shot.keyframes]
     row = preview.side_by_side([keys[0], keys[1], to_rgba(read_image(gt)), ours, direct],
                                [f"{shot_dir.name} key0", "key1", f"truth t={shot.times[mid]:.2f}", "ours", "RIFE direct"])

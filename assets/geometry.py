@@ -4,12 +4,12 @@ from __future__ import annotations
 import numpy as np
 
 from ops import preview
-from ops.deform import count_flipped
-from ops.image_io import read_image
-from ops.masks import build_masks
-from ops.refine import refine_masks
-from ops.lane import deform_lane, texture_lane
-from ops.topology import optimize_topology
+from ops.appearance.lane import deform_lane, texture_lane
+from ops.geometry.deform import count_flipped
+from ops.geometry.topology import optimize_topology
+from ops.segmentation.masks import build_masks
+from ops.segmentation.refine import refine_masks
+from ops.shotio.image_io import read_image
 from ops.types import DeformedSequence, Masks, RefinedMasks, TexturedTemplate
 
 from .stage import StageEnv, StageResult, stage_asset
@@ -132,16 +132,9 @@ def _check_no_folds(seq: DeformedSequence, env: StageEnv) -> tuple[bool, str]:
 def lane_assets(k: int) -> list:
     lane = f"key{k}"
     return [
-        stage_asset(f"{lane}/masks", _masks(k), modules=("ops.masks",),
-                    checks={"masks_nonempty_in_frame": _check_masks, "occlusion_inside_foreground": _check_occlusion_inside}),
-        stage_asset(f"{lane}/refined_masks", _refined(k), modules=("ops.refine", "ops.mesh", "ops.deform", "ops.energy"),
-                    checks={"occlusion_inside_foreground": _check_occlusion_inside}),
-        stage_asset(f"{lane}/template", _template(k), uses=("seed", "template_mode"),
-                    modules=("ops.topology", "ops.template", "ops.mesh", "ops.deform", "ops.energy"),
-                    checks={"no_folded_triangles_at_rest": _check_template_folds}),
-        stage_asset(f"{lane}/textured_template", _textured(k), uses=("mu", "grad_tol", "max_iter"),
-                    modules=("ops.lane", "ops.texture", "ops.render", "ops.inpaint", "ops.deform"), resources=("inpainter",)),
-        stage_asset(f"{lane}/deformed_frames", _deformed(k), uses=("mu", "supersample"),
-                    modules=("ops.lane", "ops.deform", "ops.energy", "ops.render"),
-                    checks={"no_folded_triangles": _check_no_folds}),
+        stage_asset(f"{lane}/masks", _masks(k), checks={"masks_nonempty_in_frame": _check_masks, "occlusion_inside_foreground": _check_occlusion_inside}),
+        stage_asset(f"{lane}/refined_masks", _refined(k), checks={"occlusion_inside_foreground": _check_occlusion_inside}),
+        stage_asset(f"{lane}/template", _template(k), checks={"no_folded_triangles_at_rest": _check_template_folds}),
+        stage_asset(f"{lane}/textured_template", _textured(k), resources=("inpainter",)),
+        stage_asset(f"{lane}/deformed_frames", _deformed(k), checks={"no_folded_triangles": _check_no_folds}),
     ]

@@ -36,7 +36,23 @@ PARENTS: dict[str, tuple[str, ...]] = {
     "inbetween_frames": ("rife_matrix", "optimal_path"),
 }
 
-STAGES = tuple(PARENTS)  # topological order
+
+
+def topological(parents: dict[str, tuple[str, ...]]) -> tuple[str, ...]:
+    """Stages ordered so that each comes after all of its parents (ties keep the table's order).
+
+    The table is not in that order: key0's texture reads key1's refined masks.
+    """
+    done: list[str] = []
+    while len(done) < len(parents):
+        ready = [n for n in parents if n not in done and all(p in done or p not in parents for p in parents[n])]
+        if not ready:
+            raise ValueError(f"the stage graph has a cycle among {sorted(set(parents) - set(done))}")
+        done.append(ready[0])
+    return tuple(done)
+
+
+STAGES = topological(PARENTS)
 
 # The evaluation group (issue 5): baselines and metrics against ground truth; `inbetween eval` runs it.
 EVAL_PARENTS: dict[str, tuple[str, ...]] = {
@@ -46,14 +62,7 @@ EVAL_PARENTS: dict[str, tuple[str, ...]] = {
     "evaluation/metrics": ("rife_matrix", "optimal_path", "evaluation/single_layer", "evaluation/rife_direct",
                            "key0/drawing", "key1/drawing", "ground_truth"),
 }
-EVAL_STAGES = tuple(EVAL_PARENTS)
 ALL_PARENTS = {**PARENTS, **EVAL_PARENTS}
+ALL_STAGES = topological(ALL_PARENTS)
+EVAL_STAGES = tuple(n for n in ALL_STAGES if n in EVAL_PARENTS)
 
-
-def descendants(keys: set[str], stages: tuple[str, ...] = STAGES) -> set[str]:
-    """Every one of `stages` downstream of any of `keys` (not including them)."""
-    out: set[str] = set()
-    for stage in stages:
-        if any(p in keys or p in out for p in ALL_PARENTS[stage]):
-            out.add(stage)
-    return out

@@ -1,92 +1,80 @@
-"""Data versions and staleness, read from the Dagster event log.
+"""Freshness of every stage of a shot, decided from the store and the shot files alone (no Dagster import).
 
-Each stage records, with its materialization, the data versions of its
-parents plus its settings and code version (metadata `inbetween/inputs`).
-A stage is fresh when those equal the parents' current versions, so a
-parent re-executed with an identical result leaves its children fresh.
-We keep this record ourselves because Dagster 1.13 does not record the
-per-partition data version of an observable source as an input version.
+Each stage records, with its output (resources/store.py), its provenance: the
+data versions of its parents, the settings it read and its code record
+(assets/codeversion.py). A stage is
+- missing: never stored, or its stored output is damaged;
+- stale: its record differs from now (a parent changed, a setting it read
+  changed, a file of its code changed), or a stage upstream of it is stale or
+  missing (it will run again after that one);
+- fresh: otherwise.
+Status is transitive, so the stages it calls not fresh are exactly those the
+next run executes (a stage executed because of its upstream may still find
+its inputs unchanged after all and keep its output: it then reports cached).
 """
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-import dagster as dg
+from ops.settings import Settings
+from resources.store import Store
 
-from .graph import ALL_PARENTS, SOURCES, STAGES, descendants
-
-INPUTS_KEY = "inbetween/inputs"
-
-
-def asset_key(name: str) -> dg.AssetKey:
-    return dg.AssetKey(name.split("/"))
-
-
-def current_version(instance: dg.DagsterInstance, name: str, partition: str) -> str | None:
-    """Latest data version of a source (observation) or stage (materialization) for a partition."""
-    flt = dg.AssetRecordsFilter(asset_key=asset_key(name), asset_partitions=[partition])
-    fetch = instance.fetch_observations if name in SOURCES else instance.fetch_materializations
-    records = fetch(flt, limit=1).records
-    if not records:
-        return None
-    event = records[0].asset_observation if name in SOURCES else records[0].asset_materialization
-    return event.tags.get("dagster/data_version")
-
-
-def last_inputs(instance: dg.DagsterInstance, name: str, partition: str) -> tuple[str | None, dict | None]:
-    """(data version, recorded inputs) of a stage's latest materialization for a partition."""
-    records = instance.fetch_materializations(
-        dg.AssetRecordsFilter(asset_key=asset_key(name), asset_partitions=[partition]), limit=1).records
-    if not records:
-        return None, None
-    mat = records[0].asset_materialization
-    entry = mat.metadata.get(INPUTS_KEY)
-    return mat.tags.get("dagster/data_version"), (json.loads(entry.value) if entry is not None else None)
-
-
-def current_inputs(instance: dg.DagsterInstance, name: str, partition: str, config: dict) -> dict:
-    """What a stage would record if it ran now: parents' versions + its config."""
-    return {"parents": {p: current_version(instance, p, partition) for p in ALL_PARENTS[name]}, "config": config}
+from .codeversion import changed_files
+from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
 
 
 @dataclass
 class StageStatus:
     name: str
     state: str  # "fresh" | "stale" | "missing"
-    causes: list[str]
+    causes: list[str] = field(default_factory=list)
 
 
-def resolve(instance: dg.DagsterInstance, partition: str, configs: dict[str, dict], exists,
-            stages: tuple[str, ...] = STAGES) -> dict[str, StageStatus]:
-    """Status of each stage (one hop, as Dagster computes it). `exists(name)` checks storage."""
-    out = {}
-    for name in stages:
-        version, recorded = last_inputs(instance, name, partition)
-        if version is None or not exists(name):
-            out[name] = StageStatus(name, "missing", ["never materialized" if version is None else "stored output missing"])
+def parent_versions(name: str, partition: str, store: Store, sources: dict[str, str]) -> dict[str, str | None]:
+    """Current data version of each parent: a source's content hash, a stage's stored output hash (None if missing)."""
+    return {p: sources.get(p) if p in SOURCES else store.hash(p, partition) for p in ALL_PARENTS[name]}
+
+
+def provenance(parents: dict[str, str | None], settings_read: dict, code: dict[str, str]) -> dict:
+    """The record a stage stores with its output."""
+    return {"parents": parents, "settings": settings_read, "code": code}
+
+
+def differences(recorded: dict | None, parents: dict, settings: Settings, code: dict[str, str]) -> list[str]:
+    """Why a stored output no longer matches its inputs (empty: it does)."""
+    if not recorded:
+        return ["no provenance recorded"]
+    causes = [f"{p} changed" for p, v in parents.items() if recorded.get("parents", {}).get(p) != v]
+    values = settings.as_dict()
+    for key, old in recorded.get("settings", {}).items():
+        if values.get(key, old) != old:
+            causes.append(f"setting {key} changed ({old} -> {values.get(key)})")
+    files = changed_files(recorded.get("code", {}), code)
+    if files:
+        causes.append("code changed: " + ", ".join("the stage's own functions" if f == "<functions>" else f
+                                                   for f in files))
+    return causes
+
+
+def resolve(partition: str, store: Store, sources: dict[str, str], settings: Settings,
+            code: dict[str, dict[str, str]], stages: tuple[str, ...]) -> dict[str, StageStatus]:
+    """Status of each of `stages` (and of the stages upstream of them), in graph order."""
+    out: dict[str, StageStatus] = {}
+    for name in ALL_STAGES:  # parents before children
+        digest, recorded = store.provenance(name, partition)
+        if digest is None:
+            damaged = store.path(name, partition).exists()
+            out[name] = StageStatus(name, "missing", ["stored output damaged" if damaged else "never materialized"])
             continue
-        now = current_inputs(instance, name, partition, configs[name])
-        causes = []
-        if recorded is None:
-            causes.append("no provenance recorded")
-        else:
-            for p, v in now["parents"].items():
-                if recorded["parents"].get(p) != v:
-                    causes.append(f"{p} changed")
-            for k, v in now["config"].items():
-                if recorded["config"].get(k) != v:
-                    causes.append(f"setting {k} changed ({recorded['config'].get(k)} -> {v})")
+        upstream = [p for p in ALL_PARENTS[name] if p in out and out[p].state != "fresh"]
+        causes = [f"upstream {p} {out[p].state}" for p in upstream]
+        parents = parent_versions(name, partition, store, sources)
+        causes += [c for c in differences(recorded, parents, settings, code[name])
+                   if c.removesuffix(" changed") not in upstream]
         out[name] = StageStatus(name, "stale" if causes else "fresh", causes)
-    return out
+    return {n: out[n] for n in stages}
 
 
-def to_run(statuses: dict[str, StageStatus], stages: tuple[str, ...] = STAGES) -> list[str]:
-    """Stages to execute: stale or missing ones and everything downstream, in graph order.
-
-    Downstream stages whose inputs turn out identical skip their work inside the run
-    (see assets.stage), so this over-selection never recomputes anything needlessly.
-    """
-    direct = {n for n, s in statuses.items() if s.state != "fresh"}
-    chosen = direct | descendants(direct, stages)
-    return [n for n in stages if n in chosen]
+def to_run(statuses: dict[str, StageStatus]) -> list[str]:
+    """The stages a run executes: every one that is not fresh, in graph order."""
+    return [n for n, s in statuses.items() if s.state != "fresh"]

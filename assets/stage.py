@@ -1,37 +1,50 @@
 """One factory that turns a pure compute function into a cached, checked Dagster asset.
 
-Every stage: records its provenance (parents' data versions, settings, code
-version), skips its work when that provenance equals the last one and the
-stored output is intact, returns a data version computed from its own output,
-attaches a preview image and counts, and reports its asset checks.
+Every stage: records its provenance with its output (its parents' data
+versions, the settings it read, its code record), skips its work when that
+provenance equals what the inputs are now and the stored output is intact,
+returns the content hash of its output as its data version, attaches a
+preview image and counts, and reports its asset checks. Freshness is read
+from the store, not from Dagster's event log (assets/provenance.py), so the
+run planner can decide it without starting Dagster.
 """
 from __future__ import annotations
 
 import base64
-import hashlib
-import importlib
-import inspect
 import json
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import cv2
 import dagster as dg
 import numpy as np
 
-from ops.image_io import read_image, to_rgba, write_image
+from ops.settings import RecordingSettings, Settings
+from ops.shotio.image_io import read_image, to_rgba, write_image
+from ops.shotio.versions import source_versions
 from ops.types import Shot
-from resources.settings import PipelineSettings
+from resources.inpainter import InpainterResource
+from resources.rife import RifeResource
 from resources.shots import ShotsResource
-from resources.storage import StageStore, content_hash, stored_hash
+from resources.storage import DIGEST_KEY, PROVENANCE_KEY
+from resources.store import Store, content_hash
 
+from . import progress
+from .codeversion import code_record, code_version
 from .graph import ALL_PARENTS, SOURCES
-from .provenance import INPUTS_KEY, asset_key, current_inputs, last_inputs
+from .provenance import differences, parent_versions, provenance
 
 PARTITIONS = dg.DynamicPartitionsDefinition(name="shots")
+
+# the resources a stage may declare, by key: their modules' code is part of the stage's code record
+RESOURCE_TYPES: dict[str, type] = {"rife": RifeResource, "inpainter": InpainterResource}
+
+
+def asset_key(name: str) -> dg.AssetKey:
+    return dg.AssetKey(name.split("/"))
 
 
 @dataclass
@@ -47,16 +60,16 @@ class StageEnv:
 
     context: dg.AssetExecutionContext
     partition: str
-    store: StageStore
+    store: Store
     shots: ShotsResource
-    settings: PipelineSettings
+    settings: RecordingSettings
 
     @cached_property
     def shot(self) -> Shot:
         return self.shots.load(self.partition)
 
     def read(self, name: str) -> Any:
-        return self.store.read(asset_key(name), self.partition)
+        return self.store.read(name, self.partition)
 
     def drawing(self, k: int) -> np.ndarray:
         """(H, W, 4) float32 keyframe k."""
@@ -67,18 +80,6 @@ class StageEnv:
 
     def log(self, message: str) -> None:
         self.context.log.info(message)
-
-
-def code_version(modules: tuple[str, ...]) -> str:
-    """Hash of the source of the ops modules a stage runs: editing them makes the stage stale."""
-    h = hashlib.sha256()
-    for m in modules:
-        h.update(Path(inspect.getfile(importlib.import_module(m))).read_bytes())
-    return h.hexdigest()[:12]
-
-
-def stage_config(settings: PipelineSettings, uses: tuple[str, ...], modules: tuple[str, ...]) -> dict:
-    return {**{k: getattr(settings, k) for k in uses}, "code": code_version(modules)}
 
 
 def preview_markdown(img: np.ndarray, max_width: int = 640) -> str:
@@ -106,16 +107,34 @@ def _metadata_value(v: Any) -> Any:
 
 Check = Callable[[Any, StageEnv], tuple[bool, str]]
 
-# stage name -> (settings it reads, ops modules whose source is its code version)
-STAGE_SPECS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {}
+
+@dataclass(frozen=True)
+class StageSpec:
+    """What the planner needs of a stage without running it: its code record, and what it was derived from."""
+
+    name: str
+    code: dict[str, str]  # file -> source hash (assets/codeversion.py)
+    functions: tuple[Callable, ...]  # the compute function and the StageEnv methods it reads through
+    resource_modules: tuple[str, ...]  # modules of the resources it declares
 
 
-def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, uses: tuple[str, ...] = (),
-                modules: tuple[str, ...] = (), checks: dict[str, Check] | None = None,
+# stage name -> spec, filled as the asset modules define their stages
+STAGE_SPECS: dict[str, StageSpec] = {}
+
+
+def stage_spec(name: str, compute: Callable, resources: tuple[str, ...]) -> StageSpec:
+    """Code record of a stage: its compute function, the StageEnv it reads through, its resources' modules."""
+    functions = (compute, *[v for v in vars(StageEnv).values() if callable(v)], StageEnv.shot.func)
+    modules = tuple(RESOURCE_TYPES[r].__module__ for r in resources)
+    return StageSpec(name, code_record(functions, modules), functions, modules)
+
+
+def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks: dict[str, Check] | None = None,
                 resources: tuple[str, ...] = (), group: str | None = None, description: str | None = None):
-    """A partitioned asset `name` whose parents come from assets.graph.PARENTS."""
+    """A partitioned asset `name` whose parents come from assets.graph.ALL_PARENTS."""
     checks = checks or {}
-    STAGE_SPECS[name] = (uses, modules)
+    STAGE_SPECS[name] = spec = stage_spec(name, compute, resources)
+    code = spec.code
     key = asset_key(name)
     check_specs = [dg.AssetCheckSpec(c, asset=key) for c in checks]
     group = group or (name.split("/")[0] if "/" in name else "blending")
@@ -123,42 +142,48 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, uses: 
     @dg.asset(key=key, deps=[asset_key(p) for p in ALL_PARENTS[name]], partitions_def=PARTITIONS,
               io_manager_key="io_manager", required_resource_keys={"io_manager", "shots", "settings", *resources},
               check_specs=check_specs, group_name=group.replace("/", "_"), description=description or compute.__doc__,
-              code_version=code_version(modules) if modules else None)
+              code_version=code_version(code))
     def _asset(context):
         partition = context.partition_key
-        env = StageEnv(context, partition, context.resources.io_manager, context.resources.shots, context.resources.settings)
-        config = stage_config(env.settings, uses, modules)
-        inputs = current_inputs(context.instance, name, partition, config)
-        missing = [p for p, v in inputs["parents"].items() if v is None]
+        settings: Settings = context.resources.settings.values()
+        env = StageEnv(context, partition, context.resources.io_manager.files, context.resources.shots,
+                       RecordingSettings(settings))
+        parents = parent_versions(name, partition, env.store, source_versions(env.shot))
+        missing = [p for p, v in parents.items() if v is None]
         if missing:
-            raise dg.Failure(f"{name}: parents {missing} have no data version for shot {partition!r}; "
-                             "observe the sources first (the CLI does) or materialize the parents")
-        last_version, last_recorded = last_inputs(context.instance, name, partition)
+            raise dg.Failure(f"{name}: parents {missing} have no stored output for shot {partition!r}; "
+                             "materialize them first (the CLI selects them)")
+        progress.emit(partition, name, "start")
         start = time.perf_counter()
-        cached = (last_recorded == inputs and last_version is not None
-                  and stored_hash(env.store.path(key, partition)) == last_version)
-        if cached:  # identical inputs and intact output: nothing to compute
-            value = env.read(name)
-            result = StageResult(value, {})
-            version = last_version
+        version, recorded = env.store.provenance(name, partition)
+        cached = version is not None and not differences(recorded, parents, settings, code)
+        if cached:  # identical inputs and intact output: nothing to compute, nothing to write
+            value, result = None, StageResult(None, {"warnings": (recorded or {}).get("warnings", [])})
         else:
             result = compute(env)
             value = result.value
             version = content_hash(value)
         seconds = time.perf_counter() - start
-        meta = {INPUTS_KEY: dg.MetadataValue.text(json.dumps(inputs, sort_keys=True)),
-                "seconds": dg.MetadataValue.float(round(seconds, 3)), "cached": dg.MetadataValue.bool(cached)}
+        warnings = list(result.metadata.get("warnings", []))
+        meta = {DIGEST_KEY: dg.MetadataValue.text(version), "seconds": dg.MetadataValue.float(round(seconds, 3)),
+                "cached": dg.MetadataValue.bool(cached)}
+        if not cached:  # the record written with the new output (resources/storage.py)
+            record = {**provenance(parents, env.settings.read, code), "warnings": warnings}
+            meta[PROVENANCE_KEY] = dg.MetadataValue.text(json.dumps(record))
         meta.update({k: _metadata_value(v) for k, v in result.metadata.items()})
         if result.preview is not None:
-            preview_path = Path(env.store.root) / partition / "previews" / (name.replace("/", "__") + ".png")
+            preview_path = env.store.preview_path(name, partition)
             write_image(preview_path, result.preview)
             meta["preview"] = dg.MetadataValue.md(preview_markdown(result.preview))
             meta["preview_path"] = dg.MetadataValue.path(str(preview_path))
         yield dg.Output(value, data_version=dg.DataVersion(version), metadata=meta)
-        for check_name, fn in checks.items():
-            passed, text = fn(value, env)
-            yield dg.AssetCheckResult(check_name=check_name, asset_key=key, passed=bool(passed),
-                                      metadata={"detail": dg.MetadataValue.text(text)})
+        progress.emit(partition, name, "done", cached=cached, seconds=round(seconds, 3), warnings=len(warnings))
+        if checks:
+            checked = env.read(name) if cached else value
+            for check_name, fn in checks.items():
+                passed, text = fn(checked, env)
+                yield dg.AssetCheckResult(check_name=check_name, asset_key=key, passed=bool(passed),
+                                          metadata={"detail": dg.MetadataValue.text(text)})
 
     return _asset
 

@@ -18,10 +18,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ops.deform import Deformer, count_flipped, deform_sequence  # noqa: E402
-from ops.template import build_template  # noqa: E402
-from ops.topology import optimize_topology  # noqa: E402
-from ops.types import RefinedMasks, Skeleton  # noqa: E402
+from ops.geometry.deform import Deformer, count_flipped, deform_sequence
+from ops.geometry.template import build_template
+from ops.geometry.topology import optimize_topology
+from ops.types import RefinedMasks, Skeleton
 
 S = 3.0  # 128-px layout scaled to 384 px
 SKELETON = Skeleton(joints=("hips", "neck", "shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1, 2, 3]))

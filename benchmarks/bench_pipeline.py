@@ -46,7 +46,7 @@ def main() -> None:
             warm = cli(["run", str(d), "--out", str(out)], home)
             sequential += cold
             stages = sorted(report["stages"].items(), key=lambda kv: -kv[1]["seconds"])[:3]
-            from ops.image_io import image_size
+            from ops.shotio.image_io import image_size
 
             h, w = image_size(d / "key0.png")
             print(f"{d.name:14s} {w:>4d}x{h:<3d} {cold:7.1f} {warm:7.1f}   "

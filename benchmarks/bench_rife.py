@@ -13,8 +13,8 @@ import numpy as np
 import torch
 from scipy.ndimage import gaussian_filter
 
-from ops.image_matrix import build_image_matrix
-from ops.rife import Rife, load_rife
+from ops.blending.image_matrix import build_image_matrix
+from ops.blending.rife import Rife, load_rife
 
 
 def smooth_frames(t: int, size: int, seed: int) -> np.ndarray:

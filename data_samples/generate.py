@@ -21,14 +21,14 @@ import json
 import math
 import re
 import shutil
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
 
 import cv2
 import numpy as np
 
-from ops.shot import interpolate_pose as _loader_interpolate
+from ops.shotio.interpolate import interpolate_pose as _loader_interpolate
 
 FORMAT = "inbetween-shot/1"
 FRAMES = 9  # output frames per shot, both keyframes included

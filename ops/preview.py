@@ -11,7 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .image_io import composite_over_white, to_rgba, write_image
+from ops.shotio.image_io import composite_over_white, to_rgba, write_image
 
 MAX_WIDTH = 512
 MIN_THUMB = 64             # frame strips keep thumbnails at least this wide, even with many frames

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dagster import ConfigurableResource
 
-from ops.inpaint import Inpainter, OpenCVInpainter
+from ops.appearance.inpaint import Inpainter, OpenCVInpainter
 
 
 class InpainterResource(ConfigurableResource):

@@ -2,16 +2,20 @@
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import dagster as dg
 from pydantic import Field
 
-from ops.rife import Rife, load_rife
+if TYPE_CHECKING:
+    from ops.blending.rife import Rife
 
 
 @lru_cache(maxsize=4)
 def _cached_rife(weights_path: str | None, device: str) -> Rife:
     """One loaded network per (weights, device) per process: loading and checksumming costs ~0.3 s."""
+    from ops.blending.rife import load_rife  # torch is imported only by the stages that run the network
+
     return load_rife(weights_path, device)
 
 

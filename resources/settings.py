@@ -1,19 +1,33 @@
-"""Pipeline settings with the paper's defaults, as one documented Dagster resource."""
+"""The method's parameters as a Dagster resource, derived field by field from ops.settings.Settings.
+
+The resource class is built from the dataclass so the two can never disagree
+(a default or a description changed in one place changes both).
+"""
 from __future__ import annotations
+
+from dataclasses import MISSING, fields
 
 import dagster as dg
 from pydantic import Field
 
+from ops.settings import Settings
 
-class PipelineSettings(dg.ConfigurableResource):
-    """Parameters of the method; every value is recorded in each stage's provenance."""
 
-    mu: float = Field(200.0, description="Weight of the pose term in the deformation energy (§4.3).")
-    grad_tol: float = Field(0.01, description="Stop the quasi-Newton solver at this gradient norm (§4.3).")
-    max_iter: int = Field(5000, description="Iteration cap of the deformation solver (§4.3).")
-    seed: int = Field(0, description="Seed of optuna's TPE sampler for odd T-junction counts (§4.4).")
-    epsilon: float = Field(0.02, description="Path may step back in alpha by less than this (§5.2).")
-    alpha_depth: int = Field(3, description="Recursive RIFE bisection depth: alpha grid of 2**depth + 1 values.")
-    supersample: int = Field(2, description="Renderer supersampling factor per axis (anti-aliasing).")
-    template_mode: str = Field("optimized", description="'optimized' (2.5D template, §4.4) or 'single-layer' (ablation).")
-    blend: str = Field("optimal", description="'optimal' shortest-path blending or 'diagonal' alpha = t (§5.2).")
+def _values(self) -> Settings:
+    """The plain frozen dataclass with this resource's values."""
+    return Settings(**{f.name: getattr(self, f.name) for f in fields(Settings)})
+
+
+def _class_body() -> dict:
+    """One pydantic Field per Settings field (same type, default and description), plus `values()`."""
+    body: dict = {"__annotations__": {}, "__module__": __name__, "values": _values,
+                  "__doc__": "Parameters of the method (ops.settings.Settings); each value a stage reads is recorded "
+                             "in its provenance."}
+    for f in fields(Settings):
+        assert f.default is not MISSING, f"Settings.{f.name} needs a default"
+        body["__annotations__"][f.name] = type(f.default)
+        body[f.name] = Field(f.default, description=f.metadata["doc"])
+    return body
+
+
+PipelineSettings = type("PipelineSettings", (dg.ConfigurableResource,), _class_body())

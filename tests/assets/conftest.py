@@ -9,7 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from ops.image_io import read_image, write_image
+from ops.shotio.image_io import read_image, write_image
 
 SAMPLES = Path(__file__).resolve().parents[2] / "data_samples"
 

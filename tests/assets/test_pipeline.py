@@ -7,15 +7,15 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-from assets.cli import main, run_shot
+from assets.cli import main
 from assets.graph import PARENTS, STAGES
+from assets.runs import run_shot
 
-from .conftest import frames_of, scaled_copy, SAMPLES
+from .conftest import frames_of
 
 pytestmark = pytest.mark.slow
 

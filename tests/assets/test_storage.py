@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 
 from ops.types import BlendPath, BlendPaths, OutputFrames, RefinedMasks
-from resources.storage import content_hash, read_value, stored_hash, write_value
+from resources.store import content_hash, read_value, stored_hash, write_value
 
 
 def _refined() -> RefinedMasks:

@@ -2,11 +2,26 @@
 import numpy as np
 import pytest
 
-from ops.image_io import read_image
-from ops.preview import (FG_TINT, FG_WEIGHT, FRONT_COLOUR, HANDLE_COLOUR, MAX_WIDTH, OCC_WEIGHT,
-                         POCKET_OFFSET, POINT_COLOUR, checkerboard, frame_strip, mask_overlay,
-                         region_colour, save_preview, side_by_side, strip_thumb_width, to_png_bytes,
-                         wireframe)
+from ops.preview import (
+    FG_TINT,
+    FG_WEIGHT,
+    FRONT_COLOUR,
+    HANDLE_COLOUR,
+    MAX_WIDTH,
+    OCC_WEIGHT,
+    POCKET_OFFSET,
+    POINT_COLOUR,
+    checkerboard,
+    frame_strip,
+    mask_overlay,
+    region_colour,
+    save_preview,
+    side_by_side,
+    strip_thumb_width,
+    to_png_bytes,
+    wireframe,
+)
+from ops.shotio.image_io import read_image
 
 H, W = 96, 128
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from ops.image_io import read_image
+from ops.shotio.image_io import read_image
 
 ROOT = Path(__file__).resolve().parents[2] / "data_samples"
 SHOT_DIRS = sorted(p.parent for p in ROOT.glob("*/shot.json"))
@@ -136,7 +136,7 @@ def test_explicit_poses_follow_the_interpolation_rule(name):
 
 
 def test_generator_interpolation_equals_loader():
-    shot_mod = pytest.importorskip("ops.shot")
+    shot_mod = pytest.importorskip("ops.shotio.interpolate")
     gen = _generator()
     data = _load(ROOT / "two_poses")
     parents = data["skeleton"]["parents"]

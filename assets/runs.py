@@ -1,0 +1,368 @@
+"""The run machinery beneath every front end: the CLI, `inbetween eval`, the editor and the farm call this.
+
+- `plan`: the status of every stage of a shot (fresh, stale with causes, or
+  missing), decided from the shot files and the store alone: no Dagster, no
+  torch (assets/provenance.py).
+- `run_shot`: validate the shot, take its partition's lock (a second run of
+  the same shot waits, and says so), plan, run the stages that are not fresh
+  in one in-process Dagster execution, and write the frames and report.
+  When every stage is fresh and the Dagster instance already records the
+  current versions, Dagster is not started at all.
+- `batch`, `status`, `evaluate_stages`.
+
+Front ends only parse, call and print.
+"""
+from __future__ import annotations
+
+import fcntl
+import json
+import os
+import subprocess
+import sys
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ops.errors import ShotError
+from ops.settings import Settings
+from ops.shotio.load import load_shot
+from ops.shotio.versions import source_versions
+from ops.types import Shot
+from resources.registry import register_shot
+from resources.store import Store
+
+from . import progress
+from .codeversion import ROOT, project_fingerprint
+from .graph import EVAL_STAGES, SOURCES, STAGES
+from .home import ensure_home, home, instance_id
+from .provenance import StageStatus, resolve, to_run
+
+SHOT_STAGES = STAGES
+
+
+class StageFailed(RuntimeError):
+    """A stage raised: names the shot, the stage and the cause; the full trace is in the log file."""
+
+    def __init__(self, shot: str, stage: str, cause: str, log: Path | None):
+        self.shot, self.stage, self.cause, self.log = shot, stage, cause, log
+        super().__init__(f"{shot}: {stage}: {cause}")
+
+
+# ---------------------------------------------------------------- planning (no Dagster)
+
+
+def code_records() -> dict[str, dict[str, str]]:
+    """Code record of every stage. Cached in INBETWEEN_HOME keyed by a hash of the project's sources, so the
+    planner needs Dagster (to import the stage definitions) only after the code changed.
+
+    A process that imported the definitions before the sources changed on disk (a long-lived server)
+    holds the old functions: it asks a fresh interpreter for the records of the code as it is now.
+    """
+    cache = home() / "code_records.json"
+    fingerprint = project_fingerprint()
+    try:
+        data = json.loads(cache.read_text())
+        if data.get("fingerprint") == fingerprint:
+            return data["records"]
+    except (OSError, ValueError):
+        pass
+    loaded = sys.modules.get("assets.definitions")
+    if loaded is not None and loaded.LOADED_FINGERPRINT != fingerprint:
+        out = subprocess.run([sys.executable, "-c", "import json; from assets.runs import _import_code_records; "
+                              "print(json.dumps(_import_code_records()))"],
+                             capture_output=True, text=True, check=True, cwd=ROOT)
+        records = json.loads(out.stdout.strip().splitlines()[-1])
+    else:
+        records = _import_code_records()
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    tmp = cache.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(json.dumps({"fingerprint": fingerprint, "records": records}))
+    os.replace(tmp, cache)
+    return records
+
+
+def _import_code_records() -> dict[str, dict[str, str]]:
+    _quiet_dagster_warnings()
+    from . import definitions  # noqa: F401  (defining the assets fills STAGE_SPECS)
+    from .stage import STAGE_SPECS
+
+    return {name: spec.code for name, spec in STAGE_SPECS.items()}
+
+
+@dataclass
+class Plan:
+    """What a run of one shot would do."""
+
+    shot: Shot
+    partition: str
+    sources: dict[str, str]  # source asset -> data version (content hash)
+    statuses: dict[str, StageStatus]  # stage -> status
+    recorded: bool  # the Dagster instance already records exactly these versions (the UI is current)
+
+    @property
+    def to_run(self) -> list[str]:
+        return to_run(self.statuses)
+
+
+def store() -> Store:
+    return Store(home() / "storage")
+
+
+def register(shot_dir: str | Path) -> str:
+    """Partition key of a shot directory (registered on first use)."""
+    return register_shot(home() / "shots.json", shot_dir)
+
+
+def _ui_record_path(partition: str) -> Path:
+    return store().root / partition / "dagster.json"
+
+
+def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[str, ...] = SHOT_STAGES,
+         shot: Shot | None = None) -> Plan:
+    """Validate the shot and decide the status of each of `stages` (ShotError on bad input)."""
+    shot = shot or load_shot(shot_dir)
+    partition = register(shot.root)
+    sources = source_versions(shot)
+    st = store()
+    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages)
+    try:
+        ui = json.loads(_ui_record_path(partition).read_text())
+    except (OSError, ValueError):
+        ui = {}
+    current = {"instance": instance_id(), "sources": sources,
+               "stages": {n: st.hash(n, partition) for n in stages}}
+    recorded = (current["instance"] is not None and ui.get("instance") == current["instance"]
+                and ui.get("sources") == sources
+                and all(ui.get("stages", {}).get(n) == v for n, v in current["stages"].items()))
+    return Plan(shot, partition, sources, statuses, recorded)
+
+
+def _remember_ui(p: Plan, stages: tuple[str, ...]) -> None:
+    """Note what the Dagster instance now records for this partition (so an unchanged rerun needs no Dagster)."""
+    st = store()
+    path = _ui_record_path(p.partition)
+    try:
+        ui = json.loads(path.read_text())
+    except (OSError, ValueError):
+        ui = {}
+    if ui.get("instance") != instance_id():
+        ui = {}
+    ui.update({"instance": instance_id(), "sources": p.sources})
+    ui.setdefault("stages", {}).update({n: st.hash(n, p.partition) for n in stages})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(json.dumps(ui))
+    os.replace(tmp, path)
+
+
+@contextmanager
+def shot_lock(partition: str, on_wait: Callable[[], None] | None = None) -> Iterator[None]:
+    """Exclusive lock of one shot partition across processes; calls on_wait() once if another run holds it."""
+    path = home() / "locks" / f"{partition}.lock"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w") as f:
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            if on_wait:
+                on_wait()
+            fcntl.flock(f, fcntl.LOCK_EX)
+        yield
+
+
+# ---------------------------------------------------------------- executing (Dagster)
+
+
+def _quiet_dagster_warnings() -> None:
+    import dagster as dg
+
+    for category in (dg.BetaWarning, dg.PreviewWarning, getattr(dg, "ExperimentalWarning", None)):
+        if category is not None:
+            warnings.filterwarnings("ignore", category=category)
+
+
+class Session:
+    """The Dagster instance and the Definitions, built once per process per (settings, home)."""
+
+    _cache: dict[tuple, Session] = {}
+
+    def __init__(self, settings: Settings):
+        ensure_home()
+        _quiet_dagster_warnings()
+        import dagster as dg
+
+        from .definitions import build_definitions
+
+        self.dg = dg
+        self.settings = settings
+        self.defs = build_definitions(settings)
+        self.job = self.defs.resolve_implicit_global_asset_job_def()
+        self.instance = dg.DagsterInstance.get()
+
+    @classmethod
+    def get(cls, settings: Settings) -> Session:
+        key = (settings, home(), os.environ.get("DAGSTER_HOME"), os.environ.get("INBETWEEN_SHOTS"))
+        if key not in cls._cache:
+            cls._cache[key] = cls(settings)
+        return cls._cache[key]
+
+    def ensure_partition(self, partition: str) -> None:
+        if not self.instance.has_dynamic_partition("shots", partition):
+            self.instance.add_dynamic_partitions("shots", [partition])
+
+    def observe(self, partition: str, sources: dict[str, str]) -> None:
+        """Record the sources' data versions as observations (no run is launched)."""
+        from .stage import asset_key
+
+        for name in SOURCES:
+            self.instance.report_runless_asset_event(self.dg.AssetObservation(
+                asset_key=asset_key(name), partition=partition, tags={"dagster/data_version": sources[name]}))
+
+    def materialize(self, shot: str, partition: str, names: list[str], log_path: Path, verbose: bool = False):
+        """Run the named stages of one partition in one in-process execution; StageFailed if a stage raises."""
+        from .stage import asset_key
+
+        run_config = {"loggers": {"file": {"config": {"path": str(log_path)}},
+                                  "console": {"config": {"log_level": "DEBUG" if verbose else "CRITICAL"}}}}
+        result = self.job.execute_in_process(
+            instance=self.instance, partition_key=partition, asset_selection=[asset_key(n) for n in names],
+            run_config=run_config, raise_on_error=False, tags={"inbetween/shot": partition})
+        if not result.success:
+            failures = [e for e in result.all_events if e.event_type_value == "STEP_FAILURE"]
+            if failures:
+                ev = failures[0]
+                err = ev.event_specific_data.error
+                cause = err.cause or err
+                stage = ev.step_key.replace("__", "/")
+                if getattr(cause, "cls_name", "") == "ShotError" or err.cls_name == "ShotError":
+                    message = (cause.message if cause is not None else err.message).strip().splitlines()[-1]
+                    raise ShotError(shot, stage, message.split(": ", 1)[-1], "fix the input named above")
+                message = (cause.message or err.message).strip().splitlines()
+                raise StageFailed(shot, stage, message[0] if message else "failed", log_path)
+            raise StageFailed(shot, "run", "the Dagster run failed", log_path)
+        return result
+
+
+# ---------------------------------------------------------------- front-end calls
+
+
+@dataclass
+class RunReport:
+    """Outcome of run_shot: the report.json contents plus what the front end may print."""
+
+    data: dict
+    waited: bool = False
+    events: list[dict] = field(default_factory=list)
+
+
+def _log_path(partition: str) -> Path:
+    return home() / "logs" / f"{time.strftime('%Y%m%d-%H%M%S')}-{partition}-{os.getpid()}.log"
+
+
+def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False) -> dict[str, dict]:
+    """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
+    session = Session.get(settings)
+    session.ensure_partition(p.partition)
+    session.observe(p.partition, p.sources)
+    executed: dict[str, dict] = {}
+
+    def on_event(ev: dict) -> None:
+        if ev["event"] == "done" and ev["partition"] == p.partition:
+            executed[ev["stage"]] = {"seconds": ev["seconds"], "cached": ev["cached"]}
+
+    with progress.listen(on_event):
+        session.materialize(p.shot.root, p.partition, names, _log_path(p.partition), verbose)
+    return executed
+
+
+def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None, *,
+             on_wait: Callable[[], None] | None = None, verbose: bool = False) -> dict:
+    """Run one shot end to end; returns the report (also written to OUT_DIR/report.json)."""
+    from ops.shotio.frames import write_outputs
+
+    start = time.perf_counter()
+    settings = settings or Settings()
+    shot = load_shot(shot_dir)  # validate before touching anything
+    partition = register(shot.root)
+    with shot_lock(partition, on_wait):
+        p = plan(shot.root, settings, shot=shot)
+        names = p.to_run
+        executed: dict[str, dict] = {}
+        if names or not p.recorded:
+            # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
+            executed = execute(p, settings, names or list(SHOT_STAGES), verbose)
+            _remember_ui(p, SHOT_STAGES)
+        st = store()
+        frames = st.read("inbetween_frames", partition)
+        paths = st.read("optimal_path", partition)
+    stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True})} for n in SHOT_STAGES}
+    chosen = paths.optimal if settings.blend == "optimal" else paths.diagonal
+    report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
+              "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
+              "blend": settings.blend, "template": settings.template_mode, "stages": stages,
+              "frames_version": st.hash("inbetween_frames", partition),
+              "path": {"cost": float(chosen.cost), "cost_optimal": float(paths.optimal.cost),
+                       "cost_diagonal": float(paths.diagonal.cost),
+                       "abrupt_transitions": [[float(paths.times[i]), float(paths.times[i + 1])]
+                                              for i in range(len(chosen.abrupt)) if chosen.abrupt[i]]}}
+    report["seconds_total"] = round(time.perf_counter() - start, 3)
+    write_outputs(Path(out_dir), frames.frames, report)
+    return report
+
+
+def status(shot_dir: str | Path, settings: Settings | None = None) -> Plan:
+    """The plan of a shot: which stages the next run executes, and why."""
+    return plan(shot_dir, settings)
+
+
+def evaluate_stages(shot_dir: str | Path, settings: Settings | None = None, verbose: bool = False) -> str:
+    """Run a shot's evaluation group (after run_shot); returns its partition key."""
+    settings = settings or Settings()
+    shot = load_shot(shot_dir)
+    partition = register(shot.root)
+    with shot_lock(partition):
+        p = plan(shot.root, settings, EVAL_STAGES, shot=shot)
+        if p.to_run or not p.recorded:
+            execute(p, settings, p.to_run or list(EVAL_STAGES), verbose)
+            _remember_ui(p, EVAL_STAGES)
+    return partition
+
+
+def _batch_worker(shot_dir: str, out_dir: str, settings: Settings) -> tuple[str, dict | None, str | None]:
+    import torch
+
+    torch.set_num_threads(1)  # two shots share two cores
+    try:
+        return shot_dir, run_shot(shot_dir, out_dir, settings), None
+    except ShotError as e:
+        return shot_dir, None, str(e)
+    except StageFailed as e:
+        return shot_dir, None, str(e)
+    except Exception as e:  # one line per failed shot; other shots go on
+        return shot_dir, None, f"{shot_dir}: {type(e).__name__}: {e}".splitlines()[0]
+
+
+def batch(root: str | Path, out_dir: str | Path, workers: int = 2,
+          settings: Settings | None = None) -> tuple[dict, list[str]]:
+    """Every shot directory under root, `workers` at a time; returns (reports by shot name, errors)."""
+    import multiprocessing as mp
+
+    settings = settings or Settings()
+    ensure_home()
+    shots = sorted(d for d in Path(root).iterdir() if (d / "shot.json").is_file())
+    for d in shots:  # register up front, one writer at a time
+        register(d)
+    reports, errors = {}, []
+    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
+        futures = [pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings) for d in shots]
+        for f in as_completed(futures):
+            shot_dir, report, error = f.result()
+            if error:
+                errors.append(error)
+            else:
+                reports[Path(shot_dir).name] = report
+    return reports, errors

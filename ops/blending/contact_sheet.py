@@ -1,0 +1,80 @@
+"""The image matrix as a contact sheet: columns = t, rows = alpha, with the optimal and diagonal paths (§5.2)."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ops.shotio.image_io import composite_over_white, to_rgba
+
+PATH_COLOUR = (255, 0, 0)           # RGB 8-bit: the optimal path
+DIAGONAL_COLOUR = (0, 90, 255)      # RGB 8-bit: the naive alpha = t path
+SHEET_PAD = 6                       # pixels between thumbnails and around the grid
+SHEET_LEFT = 56                     # label column for alpha
+SHEET_TOP = 22                      # label row for t
+SHEET_GREY = 237                    # 8-bit background between thumbnails
+
+
+def contact_sheet_shape(n_t: int, n_a: int, thumb: int) -> tuple[int, int, int]:
+    """(height, width, 3) of matrix_contact_sheet for T times, A alphas, thumbnail side thumb."""
+    return (SHEET_TOP + SHEET_PAD + n_a * (thumb + SHEET_PAD),
+            SHEET_LEFT + SHEET_PAD + n_t * (thumb + SHEET_PAD), 3)
+
+
+def _cell_origin(t: int, a: int, thumb: int) -> tuple[int, int]:
+    """(x, y) top-left pixel of cell (t, alpha index a)."""
+    return SHEET_LEFT + SHEET_PAD + t * (thumb + SHEET_PAD), SHEET_TOP + SHEET_PAD + a * (thumb + SHEET_PAD)
+
+
+def _thumbnail(rgba: np.ndarray, thumb: int) -> np.ndarray:
+    """(H, W, 4) -> (thumb, thumb, 3) uint8 over white, aspect kept, centred (letterboxed in white)."""
+    rgb = composite_over_white(to_rgba(rgba))
+    h, w = rgb.shape[:2]
+    s = thumb / max(h, w)
+    nh, nw = max(1, round(h * s)), max(1, round(w * s))
+    small = cv2.resize(rgb, (nw, nh), interpolation=cv2.INTER_AREA if s < 1 else cv2.INTER_LINEAR)
+    out = np.full((thumb, thumb, 3), 255, np.uint8)
+    y0, x0 = (thumb - nh) // 2, (thumb - nw) // 2
+    out[y0:y0 + nh, x0:x0 + nw] = np.round(np.clip(small.reshape(nh, nw, 3), 0, 1) * 255)
+    return out
+
+
+def _draw_path(sheet: np.ndarray, idx: np.ndarray, thumb: int, colour: tuple, inset: int) -> None:
+    """Outline the cells (t, idx[t]) inset px inside their border and join their centres, in place."""
+    centres = []
+    for t, a in enumerate(np.asarray(idx, dtype=np.int64)):
+        x, y = _cell_origin(t, int(a), thumb)
+        cv2.rectangle(sheet, (x - 2 + inset, y - 2 + inset), (x + thumb + 1 - inset, y + thumb + 1 - inset),
+                      colour, 2)
+        centres.append((x + thumb // 2, y + thumb // 2))
+    if len(centres) > 1:
+        cv2.polylines(sheet, [np.array(centres, np.int32)], False, colour, 2)
+
+
+def _label(sheet: np.ndarray, text: str, org: tuple[int, int]) -> None:
+    """Small black text with its baseline-left at org, in place."""
+    cv2.putText(sheet, text, org, cv2.FONT_HERSHEY_SIMPLEX, 0.38, (0, 0, 0), 1, cv2.LINE_AA)
+
+
+def matrix_contact_sheet(matrix_frames: np.ndarray, alphas: np.ndarray, times: np.ndarray,
+                         path_idx: np.ndarray, diagonal_idx: np.ndarray, thumb: int = 96) -> np.ndarray:
+    """matrix_frames: (T, A, H, W, 4) (memmap ok) -> (h, w, 3) float32 grid, columns = t, rows = alpha (top 0).
+
+    The optimal path's cells are outlined and joined in red, the diagonal's in
+    blue, drawn just inside the red outline so both show where they coincide.
+    """
+    n_t, n_a = matrix_frames.shape[:2]
+    if len(alphas) != n_a or len(times) != n_t or len(path_idx) != n_t or len(diagonal_idx) != n_t:
+        raise ValueError("alphas, times, path_idx and diagonal_idx must match matrix_frames (T, A, ...)")
+    # Drawn in 8 bit: OpenCV's text rendering only supports uint8 images.
+    sheet = np.full(contact_sheet_shape(n_t, n_a, thumb), SHEET_GREY, np.uint8)
+    for t in range(n_t):  # cell by cell so a memmap is read one frame at a time
+        for a in range(n_a):
+            x, y = _cell_origin(t, a, thumb)
+            sheet[y:y + thumb, x:x + thumb] = _thumbnail(np.asarray(matrix_frames[t, a]), thumb)
+    for t in range(n_t):
+        _label(sheet, f"t={times[t]:.2f}", (_cell_origin(t, 0, thumb)[0], SHEET_TOP - 6))
+    for a in range(n_a):
+        _label(sheet, f"a={alphas[a]:.3f}", (2, _cell_origin(0, a, thumb)[1] + thumb // 2 + 4))
+    _draw_path(sheet, diagonal_idx, thumb, DIAGONAL_COLOUR, inset=4)
+    _draw_path(sheet, path_idx, thumb, PATH_COLOUR, inset=0)
+    return sheet.astype(np.float32) / 255.0

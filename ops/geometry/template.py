@@ -1,0 +1,152 @@
+"""Initial 2.5D template: front-sheet triangulation, occlusion regions and skeleton handles (§4.2).
+
+The front sheet (layer 0) is a constrained Delaunay triangulation of the
+foreground whose occlusion-region boundaries are internal constraint loops, so
+every region is a union of faces. Each region r later gets a pocket (layer
+r + 1, a copy of its faces) whose sewing is decided by the cut assignment
+(ops.topology). Handles are vertices inserted at every joint and bone
+midpoint; inside region r a handle sits on the front sheet if its bone is one
+of the region's front bones, otherwise on the pocket.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ops.geometry.mesh import points_in_polygon, polygon_area, project_to_polyline, signed_areas, triangulate_pslg
+from ops.types import RefinedMasks, Skeleton
+
+FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this
+
+
+@dataclass
+class TemplateBase:
+    """Front-sheet mesh before incision: everything topology optimization needs."""
+
+    V: np.ndarray  # (n, 2) float64 front-sheet vertices, pixels
+    F: np.ndarray  # (m, 3) int64 front-sheet faces, positive signed area
+    face_region: np.ndarray  # (m,) int64 occlusion region containing the face, -1 if none
+    handle_vertex: np.ndarray  # (h,) int64 front-sheet vertex of each handle
+    handle_layer: np.ndarray  # (h,) int64 0 = front sheet, r + 1 = pocket of region r
+    handle_weights: np.ndarray  # (h, J) float64 one-hot (joint) or 0.5/0.5 (bone midpoint)
+    boundaries: list[np.ndarray]  # per region (n_r, 2) float64 boundary polyline, pixels
+    boundary_vertex: list[np.ndarray]  # per region (n_r,) int64 mesh vertex of each polyline vertex
+    junctions: list[np.ndarray]  # per region (k_r,) int64 sorted indices into boundaries[r]
+    mode: str  # "optimized" | "single-layer"
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def n_regions(self) -> int:
+        """Number of occlusion regions meshed as pockets."""
+        return len(self.boundaries)
+
+
+def handle_points(pose: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Joint and bone-midpoint handles: (points (J + B, 2) pixels, weights (J + B, J), names)."""
+    J = len(skeleton.joints)
+    bones = skeleton.bones
+    xy = np.asarray(pose, dtype=np.float64)[:, :2]
+    W = np.zeros((J + len(bones), J))
+    W[np.arange(J), np.arange(J)] = 1.0
+    W[J + np.arange(len(bones)), bones[:, 0]] = 0.5
+    W[J + np.arange(len(bones)), bones[:, 1]] += 0.5
+    names = list(skeleton.joints) + [f"{skeleton.joints[a]}-{skeleton.joints[b]} midpoint" for a, b in bones]
+    return W @ xy, W, names
+
+
+def snap_inside(P: np.ndarray, outer: np.ndarray, names: list[str], inset: float = 1.0):
+    """Move points P (k, 2) that lie outside the polygon `outer` to `inset` px inside its nearest edge: (P', warnings)."""
+    P = P.copy()
+    warnings: list[str] = []
+    out = np.nonzero(~points_in_polygon(P, outer))[0]
+    if len(out) == 0:
+        return P, warnings
+    param, dist = project_to_polyline(P[out], outer)
+    i = np.floor(param).astype(np.int64) % len(outer)
+    a, b = outer[i], outer[(i + 1) % len(outer)]
+    foot = a + (param - i)[:, None] * (b - a)
+    e = (b - a) / np.maximum(np.linalg.norm(b - a, axis=1, keepdims=True), 1e-12)
+    # Interior lies left of the edges of a positively oriented polygon (raw coordinates).
+    normal = np.stack([-e[:, 1], e[:, 0]], axis=1) * np.sign(polygon_area(outer))
+    for k, j in enumerate(out):
+        for step in (inset, 0.5 * inset, 0.25 * inset, 0.05 * inset):
+            q = foot[k] + step * normal[k]
+            if points_in_polygon(q[None], outer)[0]:
+                break
+        P[j] = q
+        warnings.append(f"handle '{names[j]}' was {dist[k]:.1f} px outside the foreground; snapped inside")
+    return P, warnings
+
+
+def _handle_layers(P: np.ndarray, W: np.ndarray, skeleton: Skeleton, refined: RefinedMasks, n_regions: int):
+    """(h,) int64 layer of each handle: r + 1 when inside region r and not of a front bone, else 0."""
+    bones = skeleton.bones
+    J = len(skeleton.joints)
+    # bones_of[h] = bone indices a handle belongs to: a joint belongs to every bone it ends.
+    bones_of = [np.nonzero((bones == j).any(axis=1))[0] for j in range(J)] + [np.array([b]) for b in range(len(bones))]
+    layer = np.zeros(len(P), np.int64)
+    for r in range(n_regions):
+        inside = points_in_polygon(P, refined.boundaries[r])
+        front = set(np.asarray(refined.front_bones[r]).tolist())
+        for hix in np.nonzero(inside & (layer == 0))[0]:
+            if not front.intersection(bones_of[hix].tolist()):
+                layer[hix] = r + 1
+    return layer
+
+
+def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], warnings: list[str]) -> np.ndarray:
+    """(m,) int64 region of each face by centroid (region edges are mesh edges), -1 outside all regions."""
+    region = np.full(len(F), -1, np.int64)
+    c = V[F].mean(axis=1)
+    for r, B in enumerate(boundaries):
+        inside = points_in_polygon(c, B)
+        clash = inside & (region >= 0)
+        if clash.any():
+            warnings.append(f"occlusion region {r} overlaps an earlier region on {int(clash.sum())} face(s); kept the earlier")
+        region[inside & (region < 0)] = r
+        if not inside.any():
+            warnings.append(f"occlusion region {r} contains no face")
+    return region
+
+
+def build_template(
+    refined: RefinedMasks,
+    pose: np.ndarray,
+    skeleton: Skeleton,
+    mode: str = "optimized",
+    max_area: float | None = None,
+    min_angle: float = 20.0,
+) -> TemplateBase:
+    """Triangulate the foreground with occlusion constraints and insert handles; pose (J, 3) pixels/depth."""
+    if mode not in ("optimized", "single-layer"):
+        raise ValueError(f"mode must be 'optimized' or 'single-layer', got {mode!r}")
+    outer = np.asarray(refined.foreground_boundary, dtype=np.float64)
+    boundaries = [np.asarray(b, dtype=np.float64) for b in refined.boundaries] if mode == "optimized" else []
+    fg_area = abs(polygon_area(outer))
+    max_area = fg_area / FACES_PER_FOREGROUND if max_area is None else float(max_area)
+    P, W, names = handle_points(pose, skeleton)
+    P, warnings = snap_inside(P, outer, names)
+    res = triangulate_pslg([outer] + boundaries, max_area, min_angle, points=P)
+    warnings += res.warnings
+    if (res.point_vertex < 0).any():
+        raise ValueError("a handle could not be inserted as a mesh vertex")
+    region = _face_regions(res.V, res.F, boundaries, warnings)
+    layer = _handle_layers(res.V[res.point_vertex], W, skeleton, refined, len(boundaries))
+    junctions = [np.unique(np.asarray(refined.junctions[r], dtype=np.int64)) for r in range(len(boundaries))]
+    for r, jn in enumerate(junctions):
+        if len(jn) and (jn.min() < 0 or jn.max() >= len(boundaries[r])):
+            raise ValueError(f"occlusion region {r}: T-junction index outside its {len(boundaries[r])}-vertex boundary")
+        if len(jn) % 2 and len(jn) == len(boundaries[r]):
+            warnings.append(f"occlusion region {r}: every boundary vertex is a T-junction, no room for a cusp; dropped one")
+            junctions[r] = jn[:-1]
+    bvert = res.loop_vertex[1:]
+    for r, (bv, jn) in enumerate(zip(bvert, junctions)):
+        if (bv[jn] < 0).any():
+            raise ValueError(f"occlusion region {r}: a T-junction vertex fell outside the foreground mesh")
+    assert (signed_areas(res.V, res.F) > 0).all()
+    return TemplateBase(
+        V=res.V, F=res.F, face_region=region, handle_vertex=res.point_vertex, handle_layer=layer,
+        handle_weights=W, boundaries=boundaries, boundary_vertex=bvert, junctions=junctions,
+        mode=mode, warnings=warnings,
+    )

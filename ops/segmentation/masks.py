@@ -1,0 +1,93 @@
+"""The masks of a keyframe (§4.1): foreground and occlusion regions, predicted or given by hand.
+
+Manual masks override the prediction (ops.segmentation.foreground,
+ops.segmentation.occlusion); the T-junction refinement (ops.segmentation.refine)
+then corrects the region boundaries where the user clicked.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from ops.errors import ShotError
+from ops.segmentation.bones import thick_regions
+from ops.segmentation.foreground import foreground_mask
+from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
+from ops.segmentation.occlusion import predict_occlusion
+from ops.types import Masks, Skeleton
+
+NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
+
+
+def pose_warnings(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> list[str]:
+    """Warnings for joints and bone midpoints outside the (H, W) bool foreground (the template snaps them)."""
+    dist_out = ndimage.distance_transform_edt(~foreground)
+    h, w = foreground.shape
+    xy = pose[:, :2]
+    mids = xy[skeleton.bones].mean(axis=1)
+    names = list(skeleton.joints) + [f"bone {skeleton.joints[p]}-{skeleton.joints[c]} midpoint" for p, c in skeleton.bones]
+    warnings = []
+    for name, (x, y) in zip(names, np.concatenate([xy, mids])):
+        if not (0 <= x <= w - 1 and 0 <= y <= h - 1):
+            warnings.append(f"{name} at ({x:.1f}, {y:.1f}) lies outside the image; check the pose")
+            continue
+        d = float(dist_out[int(round(y)), int(round(x))])
+        if d == 0:
+            continue
+        how = "slightly" if d <= NEAR_OUTSIDE_PX else "far"
+        warnings.append(f"{name} at ({x:.1f}, {y:.1f}) lies {how} outside the foreground ({d:.1f} px)")
+    return warnings
+
+
+def _foreground(drawing: np.ndarray, manual: np.ndarray | None, source: str) -> np.ndarray:
+    """(H, W) bool foreground: the manual mask when given, else predicted; raises ShotError when empty."""
+    if manual is None:
+        fg = foreground_mask(drawing)
+        if not fg.any():
+            raise ShotError(source, "keyframes", "no ink found in the drawing", "draw on light paper or give masks.foreground")
+        return fg
+    m = np.asarray(manual)
+    if m.shape != drawing.shape[:2]:
+        raise ShotError(
+            source, "masks.foreground", f"size {m.shape} differs from the drawing {drawing.shape[:2]}",
+            "save the mask at the keyframe's width and height",
+        )
+    fg = m > 0.5 if m.dtype != bool else m.copy()
+    if not fg.any():
+        raise ShotError(source, "masks.foreground", "the manual foreground mask is empty", "paint the character white")
+    return fg
+
+
+def build_masks(
+    drawing: np.ndarray,
+    pose: np.ndarray,
+    skeleton: Skeleton,
+    manual_foreground: np.ndarray | None = None,
+    manual_occlusion: list[np.ndarray] | None = None,
+    source: str = "drawing",
+) -> Masks:
+    """Masks of a (H, W, C) float32 drawing at a (J, 3) pose; manual masks ((H, W) bool/float) override.
+
+    manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
+    those regions. `source` names the keyframe file in errors.
+    """
+    fg = _foreground(drawing, manual_foreground, source)
+    warnings = pose_warnings(fg, pose, skeleton)
+    predicted = manual_occlusion is None or len(manual_occlusion) == 0
+    if predicted:
+        regions, fronts, w = predict_occlusion(fg, pose, skeleton)
+        warnings += w
+    else:
+        kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
+        warnings += w
+        scored = []
+        thick = thick_regions(fg, pose, skeleton) if kept else None
+        for r in kept:
+            front, depth, w = manual_front_bones(r, thick, pose, skeleton)
+            warnings += w
+            scored.append((-depth, r, front))
+        scored.sort(key=lambda s: s[0])  # stable: ties keep the file order
+        regions, fronts = [s[1] for s in scored], [s[2] for s in scored]
+    n_manual = (manual_foreground is not None) + (not predicted)
+    kind = {0: "predicted", 1: "mixed", 2: "manual"}[n_manual]
+    return Masks(foreground=fg, occlusion=regions, front_bones=fronts, source=kind, warnings=warnings)

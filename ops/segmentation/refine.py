@@ -1,0 +1,326 @@
+"""Refinement of occlusion masks by T-junctions (§4.1).
+
+The user's T-junction clicks are trusted; the predicted (or painted) occlusion
+region is not. Each region is triangulated and deformed with the same
+symmetric Dirichlet machinery as the template (ops/deform.py) so that its
+boundary passes exactly through its T-junctions while the rest of the
+boundary is held in place; the deformed polygon is rasterized back into a
+mask inside the foreground. Boundaries are closed polylines (first != last)
+with positive shoelace area in image coordinates (the mesh's face
+orientation), simplified by Douglas-Peucker with a 2 px tolerance, and each
+T-junction is a vertex of its region's polyline. Polyline vertices lie on the
+centres of the region's outermost pixels (cv2.findContours), so `rasterize`
+(boundary-inclusive fill) of an unsimplified boundary gives the mask back.
+"""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from ops.geometry.deform import Deformer
+from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
+from ops.segmentation.snap import snap_into
+from ops.types import Masks, RefinedMasks
+
+DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
+MERGE_CLICKS_PX = 4.0  # clicks this close are one junction clicked several times
+ASSOCIATE_PX = 12.0  # a junction farther than this from every region boundary belongs to none
+SEGMENT_PX = 4.0  # boundary edge length of the deformation mesh
+MESH_DP_EPS_PX = 0.75  # tolerance of the contour the deformation mesh is built on
+
+
+# ---------------------------------------------------------------- polylines
+
+
+def _orient(P: np.ndarray) -> np.ndarray:
+    """(n, 2) closed polyline with positive shoelace area (reversed if needed)."""
+    return P[::-1].copy() if polygon_area(P) < 0 else P
+
+
+def _largest_contour(mask: np.ndarray) -> np.ndarray:
+    """(n, 2) float64 outer boundary pixel centres of the largest component of a (H, W) bool mask."""
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        raise ValueError("mask_boundary: empty mask")
+    best = max(contours, key=lambda c: (abs(cv2.contourArea(c)), len(c)))
+    return best.reshape(-1, 2).astype(np.float64)
+
+
+def simplify(P: np.ndarray, eps: float = DP_EPS_PX, keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Douglas-Peucker of a closed (n, 2) polyline keeping vertices `keep` (k,): (simplified (m, 2), new index of each kept vertex)."""
+    if keep is None or len(keep) == 0:
+        Q = cv2.approxPolyDP(P.astype(np.float32).reshape(-1, 1, 2), eps, True).reshape(-1, 2)
+        return Q.astype(np.float64), np.zeros(0, np.int64)
+    keep = np.asarray(keep, np.int64)
+    anchors = np.unique(keep)
+    if len(anchors) == 1:  # an open chain needs two distinct ends: add the vertex farthest away
+        anchors = np.unique([anchors[0], int(np.argmax(np.linalg.norm(P - P[anchors[0]], axis=1)))])
+    n, out, starts = len(P), [], []
+    for a, b in zip(anchors, np.roll(anchors, -1)):
+        # open chain from kept vertex a to the next kept vertex b (wrapping); DP keeps its endpoints
+        span = (b - a) % n or n
+        chain = P[(a + np.arange(span + 1)) % n]
+        Q = cv2.approxPolyDP(chain.astype(np.float32).reshape(-1, 1, 2), eps, False).reshape(-1, 2)
+        starts.append(sum(len(c) for c in out))
+        out.append(Q[:-1].astype(np.float64))
+        out[-1][0] = P[a]  # exact (float32 rounding in approxPolyDP)
+    return np.concatenate(out), np.asarray(starts, np.int64)[np.searchsorted(anchors, keep)]
+
+
+def mask_boundary(mask: np.ndarray, eps: float = DP_EPS_PX) -> np.ndarray:
+    """(n, 2) float64 outer boundary of a (H, W) bool mask's largest component, pixels, DP-simplified, positive area."""
+    Q, _ = simplify(_largest_contour(mask), eps)
+    return _orient(Q)
+
+
+def densify(P: np.ndarray, seg: float = SEGMENT_PX) -> np.ndarray:
+    """(m, 2) closed polyline with every edge of the (n, 2) closed polyline P split to length <= seg pixels."""
+    E = np.roll(P, -1, axis=0) - P
+    k = np.maximum(1, np.ceil(np.linalg.norm(E, axis=1) / seg).astype(int))
+    edge = np.repeat(np.arange(len(P)), k)
+    frac = np.concatenate([np.arange(c) / c for c in k])
+    return P[edge] + frac[:, None] * E[edge]
+
+
+def rasterize(P: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool pixels covered by the closed (n, 2) polygon P (pixel centres, boundary included)."""
+    img = np.zeros(shape, np.uint8)
+    pts = np.round(P * 16).astype(np.int32).reshape(-1, 1, 2)  # 4 fractional bits
+    cv2.fillPoly(img, [pts], 1, lineType=cv2.LINE_8, shift=4)
+    return img > 0
+
+
+# ---------------------------------------------------------------- junctions
+
+
+def merge_clicks(points: np.ndarray, radius: float = MERGE_CLICKS_PX) -> tuple[np.ndarray, list[str]]:
+    """(k', 2) float64 cluster means of (k, 2) clicks chained within `radius` pixels; warnings."""
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    if len(pts) < 2:
+        return pts, []
+    pairs = np.array(sorted(cKDTree(pts).query_pairs(radius)), np.int64).reshape(-1, 2)
+    if len(pairs) == 0:
+        return pts, []
+    A = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
+    n, lab = connected_components(A, directed=False)
+    counts = np.bincount(lab, minlength=n)
+    merged = np.stack([np.bincount(lab, pts[:, d], n) for d in (0, 1)], axis=1) / counts[:, None]
+    warnings = [
+        f"{int(c)} T-junction clicks within {radius:g} px merged into one at ({x:.1f}, {y:.1f})"
+        for c, (x, y) in zip(counts, merged)
+        if c > 1
+    ]
+    return merged, warnings
+
+
+def _boundary_distance(mask: np.ndarray) -> np.ndarray:
+    """(H, W) float64 distance, pixels, to the nearest boundary pixel of a (H, W) bool mask."""
+    inner = mask & ~ndimage.binary_erosion(mask, border_value=0)
+    return ndimage.distance_transform_edt(~inner)
+
+
+def snap_junctions(
+    points: np.ndarray, region_masks: list[np.ndarray], foreground: np.ndarray, tol: float = ASSOCIATE_PX
+) -> tuple[list[np.ndarray], list[str]]:
+    """(k, 2) T-junctions grouped per region ((k_r, 2) float64 each, pixels), with warnings.
+
+    Repeated clicks are merged; a junction outside the foreground is snapped onto its boundary (the
+    refined masks are clipped to it); each goes to the region whose boundary is nearest within `tol`
+    pixels, else it is dropped. Junctions are not moved onto the region: the region is moved onto
+    them (refine_region).
+    """
+    pts, warnings = merge_clicks(points)
+    per_region = [np.zeros((0, 2)) for _ in region_masks]
+    if len(pts) == 0:
+        return per_region, warnings
+    snapped, moved = snap_into(foreground, pts)
+    shift = np.linalg.norm(snapped - pts, axis=1)
+    keep = np.ones(len(pts), bool)
+    for i in np.nonzero(moved)[0]:
+        x, y = pts[i]
+        if shift[i] > tol:
+            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) is {shift[i]:.1f} px outside the character; dropped")
+            keep[i] = False
+        elif shift[i] > 0:
+            warnings.append(
+                f"T-junction ({x:.1f}, {y:.1f}) was {shift[i]:.1f} px outside the foreground; snapped onto its boundary"
+            )
+    if not region_masks:
+        for x, y in pts[keep]:
+            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) ignored: there is no occlusion region")
+        return per_region, warnings
+    h, w = foreground.shape
+    col = np.clip(np.round(snapped[:, 0]).astype(int), 0, w - 1)
+    row = np.clip(np.round(snapped[:, 1]).astype(int), 0, h - 1)
+    dist = np.stack([_boundary_distance(m)[row, col] for m in region_masks])  # (R, k)
+    owner = np.argmin(dist, axis=0)
+    for i in np.nonzero(keep)[0]:
+        d = dist[owner[i], i]
+        if d > tol:
+            x, y = pts[i]
+            warnings.append(
+                f"T-junction ({x:.1f}, {y:.1f}) is {d:.1f} px from every occlusion region (> {tol:g} px); dropped"
+            )
+            continue
+        per_region[owner[i]] = np.vstack([per_region[owner[i]], snapped[i]])
+    return per_region, warnings
+
+
+def _insert_points(P: np.ndarray, Q: np.ndarray, reuse_px: float = 0.75) -> tuple[np.ndarray, np.ndarray]:
+    """Closed (n, 2) polyline P with the feet of points Q (k, 2) inserted: (new polyline, (k,) distinct vertex of each).
+
+    A foot on top of an existing vertex reuses it (no near-zero edge); when two junctions would share
+    a vertex (both project onto one corner) the farther one takes the nearest free vertex instead.
+    """
+    param, dist = project_to_polyline(Q, P)
+    n = len(P)
+    edge = np.floor(param).astype(int) % n
+    foot = P[edge] + (param - np.floor(param))[:, None] * (P[(edge + 1) % n] - P[edge])
+    near = np.rint(param).astype(int) % n
+    taken: dict[int, int] = {}  # existing vertex -> junction
+    inserted: list[int] = []  # junctions whose foot becomes a new vertex
+    late: list[int] = []  # junctions resolved after insertion
+    for i in np.argsort(dist, kind="stable"):
+        v = int(near[i])
+        if np.linalg.norm(foot[i] - P[v]) < reuse_px:
+            if v in taken:
+                late.append(int(i))
+            else:
+                taken[v] = int(i)
+        elif all(np.linalg.norm(foot[i] - foot[j]) >= reuse_px for j in inserted):
+            inserted.append(int(i))
+        else:
+            late.append(int(i))
+    ins = np.asarray(inserted, np.int64)
+    key = np.concatenate([np.arange(n, dtype=np.float64), param[ins]])
+    order = np.argsort(key, kind="stable")
+    pos = np.empty(len(order), np.int64)
+    pos[order] = np.arange(len(order))
+    out = np.concatenate([P, foot[ins]])[order]
+    idx = np.full(len(Q), -1, np.int64)
+    for v, i in taken.items():
+        idx[i] = pos[v]
+    idx[ins] = pos[n + np.arange(len(ins))]
+    for i in late:
+        d = np.linalg.norm(out - Q[i], axis=1)
+        d[idx[idx >= 0]] = np.inf
+        idx[i] = int(np.argmin(d))
+    return out, idx
+
+
+# ---------------------------------------------------------------- refinement
+
+
+def _handles(B: np.ndarray, jv: np.ndarray, J: np.ndarray, pull: float) -> np.ndarray:
+    """(h,) int64 boundary positions held in place: a sparse subset of B (n, 2) far from the junctions J (k, 2)."""
+    d = np.linalg.norm(B[:, None, :] - J[None], axis=2).min(axis=1)
+    d[jv] = -1.0
+    radius = max(4.0 * pull, 2.0 * SEGMENT_PX)
+    far = np.nonzero(d >= radius)[0][::2]
+    if len(far) < 3:
+        far = np.argsort(-d)[: min(3, int((d >= 0).sum()))]
+    return far.astype(np.int64)
+
+
+def _deform_boundary(P: np.ndarray, J: np.ndarray, warnings: list[str]) -> np.ndarray:
+    """(m, 2) deformed outer boundary loop of the region inside the closed (n, 2) polyline P, through J (k, 2)."""
+    D, jpos = _insert_points(densify(P), J)
+    area = abs(polygon_area(D))
+    res = triangulate_pslg([D], max_area=max(SEGMENT_PX**2, area / 2000.0))
+    warnings.extend(res.warnings)
+    loop = boundary_loops(res.F)[0]
+    where = {int(v): i for i, v in enumerate(loop)}
+    jv = res.loop_vertex[0][jpos]
+    if (jv < 0).any() or any(int(v) not in where for v in jv):
+        raise ValueError("refine_region: a junction vertex is not on the mesh's outer boundary")
+    jb = np.array([where[int(v)] for v in jv], np.int64)
+    pull = float(np.linalg.norm(res.V[jv] - J, axis=1).max())
+    held = loop[_handles(res.V[loop], jb, J, pull)]
+    handles = np.concatenate([jv, held])
+    targets = np.concatenate([J, res.V[held]])
+    out = Deformer(res.V, res.F, handles).solve(targets, x0=None)
+    if not out.converged:
+        warnings.append(f"occlusion refinement: deformation stopped at gradient norm {out.grad_norm:.3g} (not converged)")
+    X = np.asarray(out.x, np.float64).reshape(-1, 2).copy()
+    X[jv] = J  # the solver's pose term is soft; the junctions themselves are exact
+    return X[loop]
+
+
+def refine_region(
+    mask: np.ndarray, junctions: np.ndarray, foreground: np.ndarray, warnings: list[str] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Deform a (H, W) bool region so its boundary passes through (k, 2) junctions (pixels, inside the foreground).
+
+    Returns (refined (H, W) bool mask inside the foreground, boundary (n, 2) float64 DP-simplified
+    polyline, (k,) int64 indices of the junction vertices in it, ascending = boundary order).
+    """
+    warnings = [] if warnings is None else warnings
+    J = np.asarray(junctions, np.float64).reshape(-1, 2)
+    if len(J) == 0:
+        return mask & foreground, mask_boundary(mask), np.zeros(0, np.int64)
+    P = _orient(_largest_contour(mask))
+    if len(P) < 3:
+        raise ValueError("refine_region: the region is too thin to triangulate")
+    # a fine pre-simplification, so that only the final 2 px pass departs visibly from the contour
+    B = _deform_boundary(simplify(P, MESH_DP_EPS_PX)[0], J, warnings)
+    B = _orient(B)  # mesh loops follow the faces' positive orientation; guard anyway
+    if polygon_area(B) <= 0:
+        raise ValueError("refine_region: the deformed boundary is degenerate")
+    Q, jq = simplify(B, keep=_positions(B, J))
+    others = np.setdiff1d(np.arange(len(Q)), jq)
+    snapped, moved = snap_into(foreground, Q[others])
+    if moved.any():
+        warnings.append(f"occlusion refinement: {int(moved.sum())} boundary vertex(es) outside the foreground moved onto it")
+        Q[others] = snapped
+    refined = rasterize(Q, mask.shape) & foreground
+    order = np.argsort(jq)
+    return refined, Q, jq[order]
+
+
+def _positions(B: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """(k,) int64 index of the vertex of B (n, 2) lying exactly at each junction J (k, 2)."""
+    d = np.linalg.norm(B[:, None, :] - J[None], axis=2)
+    return np.argmin(d, axis=0).astype(np.int64)
+
+
+def refine_masks(masks: Masks, t_junctions: np.ndarray) -> RefinedMasks:
+    """Refine every occlusion region of `masks` by the keyframe's (k, 2) T-junctions (pixels)."""
+    warnings = list(masks.warnings)
+    fg = masks.foreground
+    per_region, w = snap_junctions(np.asarray(t_junctions, np.float64).reshape(-1, 2), masks.occlusion, fg)
+    warnings += w
+    occ, fronts, bounds, juncs = [], [], [], []
+    for r, (region, front, J) in enumerate(zip(masks.occlusion, masks.front_bones, per_region)):
+        n_comp = ndimage.label(region, structure=np.ones((3, 3), bool))[1]
+        if n_comp > 1 and len(J):
+            warnings.append(f"occlusion region {r} has {n_comp} pieces; only the largest is refined and kept")
+        elif n_comp > 1:
+            warnings.append(f"occlusion region {r} has {n_comp} pieces; its boundary describes the largest")
+        if region.sum() < 3:
+            warnings.append(f"occlusion region {r} is smaller than 3 px and was dropped")
+            continue
+        try:
+            refined, B, jidx = refine_region(region, J, fg, warnings)
+        except ValueError as err:  # a degenerate region: keep it as given rather than lose the shot
+            warnings.append(f"occlusion region {r} not refined ({err}); its {len(J)} T-junction(s) ignored")
+            refined, B, jidx = region & fg, mask_boundary(region), np.zeros(0, np.int64)
+        if not refined.any() or len(B) < 3:
+            warnings.append(f"occlusion region {r} vanished during refinement and was dropped")
+            continue
+        occ.append(refined)
+        fronts.append(front)
+        bounds.append(B)
+        juncs.append(jidx)
+    return RefinedMasks(
+        foreground=fg,
+        occlusion=occ,
+        front_bones=fronts,
+        boundaries=bounds,
+        junctions=juncs,
+        foreground_boundary=mask_boundary(fg),
+        warnings=warnings,
+    )

@@ -1,0 +1,46 @@
+"""The method's parameters, with the paper's defaults: one frozen dataclass every front end shares.
+
+Dagster exposes it as the `settings` resource (resources/settings.py, derived
+from these fields); the CLI, the editor and the run planner build it directly,
+without importing Dagster.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+
+def _doc(text: str) -> dict:
+    return {"doc": text}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Parameters of the method; a stage records the values it read, so changing one re-runs exactly its readers."""
+
+    mu: float = field(default=200.0, metadata=_doc("Weight of the pose term in the deformation energy (§4.3)."))
+    grad_tol: float = field(default=0.01, metadata=_doc("Stop the quasi-Newton solver at this gradient norm (§4.3)."))
+    max_iter: int = field(default=5000, metadata=_doc("Iteration cap of the deformation solver (§4.3)."))
+    seed: int = field(default=0, metadata=_doc("Seed of optuna's TPE sampler for odd T-junction counts (§4.4)."))
+    epsilon: float = field(default=0.02, metadata=_doc("Path may step back in alpha by less than this (§5.2)."))
+    alpha_depth: int = field(default=3, metadata=_doc("Recursive RIFE bisection depth: alpha grid of 2**depth + 1 values."))
+    supersample: int = field(default=2, metadata=_doc("Renderer supersampling factor per axis (anti-aliasing)."))
+    template_mode: str = field(default="optimized",
+                               metadata=_doc("'optimized' (2.5D template, §4.4) or 'single-layer' (ablation)."))
+    blend: str = field(default="optimal", metadata=_doc("'optimal' shortest-path blending or 'diagonal' alpha = t (§5.2)."))
+
+    def as_dict(self) -> dict:
+        """{name: value} of every parameter."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+class RecordingSettings:
+    """Read-only view of Settings that remembers which parameters were read (a stage's provenance)."""
+
+    def __init__(self, settings: Settings):
+        self._settings = settings
+        self.read: dict = {}
+
+    def __getattr__(self, name: str):
+        value = getattr(self._settings, name)  # AttributeError for unknown names, as on the dataclass
+        self.read[name] = value
+        return value

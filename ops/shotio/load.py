@@ -1,0 +1,216 @@
+"""Loading and validating a shot directory (SHOT_FORMAT.md v1).
+
+Every problem raises ops.errors.ShotError naming the file, the field and the fix.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ops.errors import ShotError
+from ops.shotio.image_io import MAX_SIDE, image_size
+from ops.shotio.interpolate import resample_poses
+from ops.types import Shot, Skeleton
+
+FORMAT = "inbetween-shot/1"
+
+
+def _resolve(root: Path, rel, file: Path, field: str) -> Path:
+    """Absolute path of `rel` inside `root`; refuses paths that escape the shot directory."""
+    if not isinstance(rel, str) or not rel:
+        raise ShotError(file, field, f"expected a relative file path, got {rel!r}", "give a file name inside the shot directory")
+    p = (root / rel).resolve()
+    if Path(rel).is_absolute() or not p.is_relative_to(root):
+        raise ShotError(file, field, f"path {rel!r} escapes the shot directory", "use a path inside the shot directory")
+    return p
+
+
+def _image(root: Path, rel, file: Path, field: str) -> tuple[Path, tuple[int, int]]:
+    """Resolved image path and its (H, W), checked from the header before any pixel is decoded."""
+    p = _resolve(root, rel, file, field)
+    if not p.is_file():
+        raise ShotError(file, field, f"image {rel!r} does not exist", "add the file or correct the path")
+    h, w = image_size(p, field)
+    if h > MAX_SIDE or w > MAX_SIDE:
+        raise ShotError(file, field, f"image {rel!r} is {w}x{h}, larger than {MAX_SIDE}x{MAX_SIDE}",
+                        f"downscale it to at most {MAX_SIDE} px per side")
+    return p, (h, w)
+
+
+def read_shot_json(shot_dir: str | Path) -> tuple[Path, dict]:
+    """(path of shot.json, parsed dict); raises ShotError when missing or not JSON."""
+    root = Path(shot_dir).resolve()
+    file = root / "shot.json"
+    if not file.is_file():
+        raise ShotError(file, "shot.json", "file not found", "create shot.json in the shot directory (see SHOT_FORMAT.md)")
+    try:
+        data = json.loads(file.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as e:
+        raise ShotError(file, "shot.json", f"not valid JSON ({e})", "fix the JSON syntax") from None
+    if not isinstance(data, dict):
+        raise ShotError(file, "shot.json", "top level is not an object", "write a JSON object with the fields of SHOT_FORMAT.md")
+    return file, data
+
+
+def parse_skeleton(data: dict, file: Path) -> Skeleton:
+    """Validated skeleton: unique names, one root, parents in range, no cycle."""
+    sk = data.get("skeleton")
+    if not isinstance(sk, dict):
+        raise ShotError(file, "skeleton", "missing or not an object", 'add {"joints": [...], "parents": [...]}')
+    joints, parents = sk.get("joints"), sk.get("parents")
+    if not isinstance(joints, list) or not joints or not all(isinstance(j, str) for j in joints):
+        raise ShotError(file, "skeleton.joints", "must be a non-empty list of names", "list one name per joint")
+    if len(set(joints)) != len(joints):
+        dup = sorted({j for j in joints if joints.count(j) > 1})
+        raise ShotError(file, "skeleton.joints", f"duplicate joint names {dup}", "make every joint name unique")
+    if not isinstance(parents, list) or len(parents) != len(joints) or not all(isinstance(p, int) and not isinstance(p, bool) for p in parents):
+        raise ShotError(file, "skeleton.parents", f"must be {len(joints)} integers (one per joint)", "give each joint's parent index, -1 for the root")
+    n = len(joints)
+    if any(p < -1 or p >= n for p in parents):
+        raise ShotError(file, "skeleton.parents", "a parent index is out of range", f"use -1 or an index in 0..{n - 1}")
+    roots = [i for i, p in enumerate(parents) if p == -1]
+    if len(roots) != 1:
+        raise ShotError(file, "skeleton.parents", f"{len(roots)} roots (joints with parent -1), expected exactly 1", "give exactly one joint the parent -1")
+    for i in range(n):  # walking up from every joint must reach the root within n steps
+        j, steps = i, 0
+        while j != -1:
+            j, steps = parents[j], steps + 1
+            if steps > n:
+                raise ShotError(file, "skeleton.parents", f"cycle through joint {joints[i]!r}", "make the parents form a tree")
+    return Skeleton(tuple(joints), np.asarray(parents, dtype=np.int64))
+
+
+def _finite_array(value, shape_tail: tuple[int, ...], file: Path, field: str, fix: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ShotError(file, field, "not a list of numbers", fix) from None
+    if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail:
+        if arr.size == 0 and shape_tail == (2,):
+            return np.zeros((0, 2))
+        raise ShotError(file, field, f"has shape {arr.shape}, expected (n, {', '.join(map(str, shape_tail))})", fix)
+    if not np.isfinite(arr).all():
+        raise ShotError(file, field, "contains NaN or infinite coordinates", "replace them with finite numbers")
+    return arr
+
+
+def parse_poses(data: dict, file: Path, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
+    """(times (P,), joints (P, J, 3)) of the given poses, validated."""
+    poses = data.get("poses")
+    if not isinstance(poses, list) or len(poses) < 2:
+        raise ShotError(file, "poses", "need at least two poses (t = 0 and t = 1)", "add the poses of both keyframes")
+    J = len(skeleton.joints)
+    times, joints = [], []
+    for i, p in enumerate(poses):
+        if not isinstance(p, dict) or "t" not in p or "joints" not in p:
+            raise ShotError(file, f"poses[{i}]", "needs fields 't' and 'joints'", 'write {"t": ..., "joints": [[x, y, z], ...]}')
+        t = p["t"]
+        if not isinstance(t, (int, float)) or isinstance(t, bool) or not math.isfinite(t):
+            raise ShotError(file, f"poses[{i}].t", f"{t!r} is not a finite number", "give t in [0, 1]")
+        if not isinstance(p["joints"], list) or len(p["joints"]) != J:
+            got = len(p["joints"]) if isinstance(p["joints"], list) else "no list"
+            raise ShotError(file, f"poses[{i}].joints", f"has {got} joints, the skeleton has {J}", "give one [x, y, z] per skeleton joint")
+        joints.append(_finite_array(p["joints"], (3,), file, f"poses[{i}].joints", "give [x, y, z] per joint"))
+        times.append(float(t))
+    times_arr = np.asarray(times)
+    if times_arr[0] != 0.0:
+        raise ShotError(file, "poses[0].t", f"first pose has t = {times_arr[0]}, expected 0", "make the first pose the keyframe at t = 0")
+    if times_arr[-1] != 1.0:
+        raise ShotError(file, f"poses[{len(times) - 1}].t", f"last pose has t = {times_arr[-1]}, expected 1", "make the last pose the keyframe at t = 1")
+    bad = np.nonzero(np.diff(times_arr) <= 0)[0]
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise ShotError(file, f"poses[{i}].t", f"t = {times_arr[i]} does not increase after {times_arr[i - 1]}", "sort the poses by strictly increasing t")
+    return times_arr, np.stack(joints)
+
+
+def _parse_masks(data: dict, root: Path, file: Path, size: tuple[int, int]):
+    masks = data.get("masks") or {}
+    if not isinstance(masks, dict):
+        raise ShotError(file, "masks", "must be an object", 'write {"foreground": [...], "occlusion": [[...], [...]]}')
+    fg = masks.get("foreground") or [None, None]
+    occ = masks.get("occlusion") or [[], []]
+    if not isinstance(fg, list) or len(fg) > 2:
+        raise ShotError(file, "masks.foreground", "must be a list of two entries (path or null)", "give one entry per keyframe")
+    if not isinstance(occ, list) or len(occ) > 2:
+        raise ShotError(file, "masks.occlusion", "must be a list of two lists of paths", "give one list per keyframe")
+    fg = list(fg) + [None] * (2 - len(fg))
+    occ = list(occ) + [[]] * (2 - len(occ))
+    fg_paths: list[str | None] = []
+    occ_paths: list[tuple[str, ...]] = []
+    for k in range(2):
+        if fg[k] is None:
+            fg_paths.append(None)
+        else:
+            p, s = _image(root, fg[k], file, f"masks.foreground[{k}]")
+            if s != size:
+                raise ShotError(file, f"masks.foreground[{k}]", f"mask is {s[1]}x{s[0]}, keyframes are {size[1]}x{size[0]}", "export the mask at the keyframe size")
+            fg_paths.append(str(p))
+        if occ[k] is None:
+            occ[k] = []
+        if not isinstance(occ[k], list):
+            raise ShotError(file, f"masks.occlusion[{k}]", "must be a list of paths", "give a list (possibly empty)")
+        paths = []
+        for i, rel in enumerate(occ[k]):
+            p, s = _image(root, rel, file, f"masks.occlusion[{k}][{i}]")
+            if s != size:
+                raise ShotError(file, f"masks.occlusion[{k}][{i}]", f"mask is {s[1]}x{s[0]}, keyframes are {size[1]}x{size[0]}", "export the mask at the keyframe size")
+            paths.append(str(p))
+        occ_paths.append(tuple(paths))
+    return tuple(fg_paths), tuple(occ_paths)
+
+
+def _parse_t_junctions(data: dict, file: Path, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    tj = data.get("t_junctions", [[], []])
+    if not isinstance(tj, list) or len(tj) != 2:
+        raise ShotError(file, "t_junctions", "must be a list of two lists (one per keyframe)", "write [[[x, y], ...], [[x, y], ...]]")
+    out = []
+    h, w = size
+    for k in range(2):
+        field = f"t_junctions[{k}]"
+        pts = _finite_array(tj[k] if tj[k] is not None else [], (2,), file, field, "give a list of [x, y] pixel points")
+        outside = (pts[:, 0] < -0.5) | (pts[:, 0] > w - 0.5) | (pts[:, 1] < -0.5) | (pts[:, 1] > h - 0.5)
+        if outside.any():
+            i = int(np.nonzero(outside)[0][0])
+            raise ShotError(file, f"{field}[{i}]", f"point {pts[i].tolist()} lies outside the {w}x{h} image", "click the T-junction on the drawing")
+        out.append(pts)
+    return out[0], out[1]
+
+
+def load_shot(shot_dir: str | Path) -> Shot:
+    """Parse and validate a shot directory; images are checked from their headers only."""
+    file, data = read_shot_json(shot_dir)
+    root = file.parent
+    if data.get("format") != FORMAT:
+        raise ShotError(file, "format", f"is {data.get('format')!r}", f'set "format": "{FORMAT}"')
+    keys = data.get("keyframes")
+    if not isinstance(keys, list) or len(keys) != 2:
+        raise ShotError(file, "keyframes", "must list exactly two images", 'write "keyframes": ["key0.png", "key1.png"]')
+    (p0, s0), (p1, s1) = (_image(root, keys[k], file, f"keyframes[{k}]") for k in range(2))
+    if s0 != s1:
+        raise ShotError(file, "keyframes", f"key0 is {s0[1]}x{s0[0]} but key1 is {s1[1]}x{s1[0]}", "export both keyframes at the same size")
+    skeleton = parse_skeleton(data, file)
+    given_t, given = parse_poses(data, file, skeleton)
+    frames = data.get("frames")
+    if frames is not None:
+        if not isinstance(frames, int) or isinstance(frames, bool) or frames < 2:
+            raise ShotError(file, "frames", f"{frames!r} is not an integer >= 2", "give the number of output frames including both keyframes")
+        times = np.linspace(0.0, 1.0, frames)
+        poses = resample_poses(given_t, given, times, skeleton.parents)
+    else:
+        times, poses = given_t, given
+    tj = _parse_t_junctions(data, file, s0)
+    fg, occ = _parse_masks(data, root, file, s0)
+    gt = data.get("ground_truth")
+    gt_path = None
+    if gt is not None:
+        gt_path = _resolve(root, gt, file, "ground_truth")
+        if not gt_path.is_dir():
+            raise ShotError(file, "ground_truth", f"folder {gt!r} does not exist", "add the folder of reference frames or remove the field")
+        gt_path = str(gt_path)
+    return Shot(root=str(root), keyframes=(str(p0), str(p1)), size=s0, skeleton=skeleton, times=times,
+                poses=poses, t_junctions=tj, foreground_masks=fg, occlusion_masks=occ, ground_truth=gt_path,
+                frames_given=frames)

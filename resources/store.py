@@ -1,0 +1,237 @@
+"""Where stage outputs live: one directory per (shot partition, stage), written atomically. No Dagster here.
+
+Layout: <root>/<partition>/<asset/key/path>/ holding
+  meta.json    dataclass type, scalar fields, content hash, provenance, file sizes (written last)
+  arrays.npz   every numpy array field (lists of arrays as name.0, name.1, ...)
+  <field>.exr  image fields (float, lossless) through OpenImageIO
+  table.parquet + table.csv  for pandas DataFrames
+A stage is written into a temporary sibling directory and renamed into place,
+so a killed run never leaves a half-written output that a rerun would trust.
+
+The provenance a stage records (its parents' data versions, the settings it
+read, its code version) lives in the same meta.json, so an output and the
+record of what produced it are replaced together, and freshness can be decided
+from the files alone (assets/provenance.py), without starting Dagster. The
+size of every file is recorded too: a truncated or deleted file makes the
+output "damaged", which is recomputed, never trusted.
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import shutil
+import uuid
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ops import types as T
+from ops.shotio.image_io import read_image, write_image
+
+# fields stored as images (H, W, C) float32 via OpenImageIO; stacks (N, H, W, C) as one file per image
+IMAGE_FIELDS = {"texture", "back_texture", "images", "frames"}
+_TYPES = {cls.__name__: cls for cls in vars(T).values() if dataclasses.is_dataclass(cls) and isinstance(cls, type)}
+
+
+def content_hash(value: Any) -> str:
+    """Deterministic sha256 (24 hex) of a stage output: arrays by bytes, dataclasses field by field."""
+    h = hashlib.sha256()
+
+    def feed(v):
+        if isinstance(v, np.ndarray):
+            h.update(str((v.dtype.str, v.shape)).encode())
+            h.update(np.ascontiguousarray(v).tobytes())
+        elif dataclasses.is_dataclass(v):
+            h.update(type(v).__name__.encode())
+            for f in dataclasses.fields(v):
+                h.update(f.name.encode())
+                feed(getattr(v, f.name))
+        elif isinstance(v, pd.DataFrame):
+            h.update(pd.util.hash_pandas_object(v, index=True).values.tobytes())
+            h.update(",".join(map(str, v.columns)).encode())
+        elif isinstance(v, (list, tuple)):
+            h.update(f"[{len(v)}".encode())
+            for x in v:
+                feed(x)
+        elif isinstance(v, dict):
+            for k in sorted(v):
+                h.update(str(k).encode())
+                feed(v[k])
+        else:
+            h.update(json.dumps(v, default=str).encode())
+
+    feed(value)
+    return h.hexdigest()[:24]
+
+
+def _save(value: Any, d: Path, prefix: str, arrays: dict, meta: dict) -> None:
+    """Split a value into arrays (npz), images (EXR) and JSON scalars."""
+    if dataclasses.is_dataclass(value):
+        meta[prefix + "__type__"] = type(value).__name__
+        for f in dataclasses.fields(value):
+            _save(getattr(value, f.name), d, f"{prefix}{f.name}.", arrays, meta) if dataclasses.is_dataclass(getattr(value, f.name)) \
+                else _save_field(f.name, getattr(value, f.name), d, prefix, arrays, meta)
+    else:
+        raise TypeError(f"cannot store {type(value)}")
+
+
+def _save_field(name: str, v: Any, d: Path, prefix: str, arrays: dict, meta: dict) -> None:
+    key = prefix + name
+    if isinstance(v, np.ndarray) and name in IMAGE_FIELDS and v.ndim in (3, 4) and v.dtype == np.float32:
+        stack = v if v.ndim == 4 else v[None]
+        flat = stack.reshape((-1,) + stack.shape[-3:])
+        for i, img in enumerate(flat):
+            write_image(d / f"{key}.{i:04d}.exr", img, dtype="float")
+        meta[key] = {"__images__": list(v.shape)}
+    elif isinstance(v, np.ndarray):
+        arrays[key] = v
+        meta[key] = {"__array__": True}
+    elif isinstance(v, list) and v and all(isinstance(x, np.ndarray) for x in v):
+        for i, x in enumerate(v):
+            arrays[f"{key}.{i}"] = x
+        meta[key] = {"__array_list__": len(v)}
+    elif isinstance(v, list) and not v:
+        meta[key] = {"__empty_list__": True}
+    else:
+        meta[key] = {"__json__": v}
+
+
+def _load(d: Path, prefix: str, arrays, meta: dict) -> Any:
+    cls = _TYPES[meta[prefix + "__type__"]]
+    kwargs = {}
+    for f in dataclasses.fields(cls):
+        key = prefix + f.name
+        if key + ".__type__" in meta:
+            kwargs[f.name] = _load(d, key + ".", arrays, meta)
+            continue
+        m = meta[key]
+        if "__images__" in m:
+            shape = tuple(m["__images__"])
+            n = int(np.prod(shape[:-3])) if len(shape) == 4 else 1
+            imgs = np.stack([read_image(d / f"{key}.{i:04d}.exr") for i in range(n)])
+            kwargs[f.name] = imgs.reshape(shape).astype(np.float32)
+        elif "__array__" in m:
+            kwargs[f.name] = arrays[key]
+        elif "__array_list__" in m:
+            kwargs[f.name] = [arrays[f"{key}.{i}"] for i in range(m["__array_list__"])]
+        elif "__empty_list__" in m:
+            kwargs[f.name] = []
+        else:
+            v = m["__json__"]
+            kwargs[f.name] = tuple(v) if isinstance(v, list) and f.type.startswith("tuple") else v
+    return cls(**kwargs)
+
+
+def write_value(path: Path, value: Any, digest: str | None = None, provenance: dict | None = None) -> str:
+    """Write a stage output atomically into directory `path`; returns its content hash (given or computed)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.parent / f".tmp-{path.name}-{uuid.uuid4().hex[:8]}"
+    tmp.mkdir()
+    try:
+        digest = digest or content_hash(value)
+        meta: dict = {"hash": digest}
+        if isinstance(value, pd.DataFrame):
+            value.to_parquet(tmp / "table.parquet")
+            value.to_csv(tmp / "table.csv", index=False)
+            meta["__kind__"] = "table"
+        else:
+            arrays: dict = {}
+            _save(value, tmp, "", arrays, meta)
+            with open(tmp / "arrays.npz", "wb") as f:
+                np.savez(f, **arrays)
+            meta["__kind__"] = "dataclass"
+        meta["__files__"] = {f.name: f.stat().st_size for f in sorted(tmp.iterdir())}
+        if provenance is not None:
+            meta["__provenance__"] = provenance
+        _write_json(tmp / "meta.json", meta)
+        old = path.parent / f".old-{path.name}-{uuid.uuid4().hex[:8]}"
+        if path.exists():
+            os.replace(path, old)
+        os.replace(tmp, path)
+        shutil.rmtree(old, ignore_errors=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return digest
+
+
+def _write_json(path: Path, data: dict) -> None:
+    """Write JSON and flush it to disk before it is renamed into place."""
+    with open(path, "w") as f:
+        json.dump(data, f, default=str)
+        f.flush()
+        os.fsync(f.fileno())
+
+
+def read_value(path: Path) -> Any:
+    """Read a stage output written by write_value."""
+    meta = json.loads((path / "meta.json").read_text())
+    if meta["__kind__"] == "table":
+        return pd.read_parquet(path / "table.parquet")
+    with np.load(path / "arrays.npz", allow_pickle=False) as z:
+        arrays = {k: z[k] for k in z.files}
+    return _load(path, "", arrays, meta)
+
+
+def read_meta(path: Path) -> dict | None:
+    """meta.json of the output at `path` if it is complete (every recorded file present at its size), else None."""
+    try:
+        meta = json.loads((path / "meta.json").read_text())
+        files = meta.get("__files__")
+        if files is not None and any((path / name).stat().st_size != size for name, size in files.items()):
+            return None
+        return meta if "hash" in meta else None
+    except (OSError, ValueError, TypeError):
+        return None
+
+
+def stored_hash(path: Path) -> str | None:
+    """Content hash of the complete output at `path`, or None if missing or damaged."""
+    meta = read_meta(path)
+    return meta["hash"] if meta else None
+
+
+def stored_provenance(path: Path) -> tuple[str | None, dict | None]:
+    """(content hash, recorded provenance) of the output at `path`; (None, None) if missing or damaged."""
+    meta = read_meta(path)
+    return (meta["hash"], meta.get("__provenance__")) if meta else (None, None)
+
+
+def update_provenance(path: Path, provenance: dict) -> None:
+    """Replace the provenance of an intact output (meta.json rewritten atomically; the data files stay)."""
+    meta = json.loads((path / "meta.json").read_text())
+    meta["__provenance__"] = provenance
+    tmp = path / f".meta-{uuid.uuid4().hex[:8]}.json"
+    _write_json(tmp, meta)
+    os.replace(tmp, path / "meta.json")
+
+
+class Store:
+    """Stage outputs of every shot under `root`: <root>/<partition>/<stage name>/."""
+
+    def __init__(self, root: str | Path):
+        self.root = Path(root)
+
+    def path(self, name: str, partition: str) -> Path:
+        """Directory of stage `name` (e.g. 'key0/masks') for a shot partition."""
+        return self.root / partition / name
+
+    def read(self, name: str, partition: str) -> Any:
+        return read_value(self.path(name, partition))
+
+    def write(self, name: str, partition: str, value: Any, digest: str | None = None,
+              provenance: dict | None = None) -> str:
+        return write_value(self.path(name, partition), value, digest, provenance)
+
+    def hash(self, name: str, partition: str) -> str | None:
+        return stored_hash(self.path(name, partition))
+
+    def provenance(self, name: str, partition: str) -> tuple[str | None, dict | None]:
+        return stored_provenance(self.path(name, partition))
+
+    def preview_path(self, name: str, partition: str) -> Path:
+        """PNG preview of a stage, beside the outputs of its shot."""
+        return self.root / partition / "previews" / (name.replace("/", "__") + ".png")

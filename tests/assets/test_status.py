@@ -1,0 +1,73 @@
+"""`inbetween status` is transitive and honest: the stages it calls not fresh are exactly those the next run
+executes, after an annotation edit, a settings change and a code change (issue 14)."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from assets import runs
+from assets.cli import main
+from assets.graph import STAGES
+from ops.settings import Settings
+
+pytestmark = pytest.mark.slow
+
+KEY0_UPSTREAM = ("key0/masks", "key0/refined_masks", "key0/template")
+
+
+def not_fresh(shot, settings=None) -> set[str]:
+    return {n for n, s in runs.status(shot, settings).statuses.items() if s.state != "fresh"}
+
+
+def executed(report: dict) -> set[str]:
+    return {n for n, s in report["stages"].items() if s["executed"]}
+
+
+def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, monkeypatch, capsys):
+    out = tmp_path / "out"
+    runs.run_shot(small_shot, out)
+    assert not_fresh(small_shot) == set()
+
+    # 1. a key1 T-junction moves by one pixel
+    data = json.loads((small_shot / "shot.json").read_text())
+    data["t_junctions"][1][0][0] += 1.0
+    (small_shot / "shot.json").write_text(json.dumps(data))
+    plan = runs.status(small_shot)
+    stale = {n for n, s in plan.statuses.items() if s.state != "fresh"}
+    key1_down = {"key1/refined_masks", "key1/template", "key1/textured_template", "key1/deformed_frames",
+                 "rife_matrix", "quality_metrics", "optimal_path", "inbetween_frames"}
+    assert key1_down <= stale and not stale & set(KEY0_UPSTREAM) and "key1/masks" not in stale
+    assert plan.statuses["key1/refined_masks"].causes == ["key1/t_junctions changed"]
+    assert "upstream key1/template stale" in plan.statuses["key1/textured_template"].causes
+    # key0's texture reads key1's refined masks (which parts of key0's pockets key1 shows, §5.1)
+    assert stale - key1_down <= {"key0/textured_template", "key0/deformed_frames"}
+    assert main(["status", str(small_shot), "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert {n for n, s in printed["stages"].items() if s["state"] != "fresh"} == stale
+    assert executed(runs.run_shot(small_shot, out)) == stale
+    assert not_fresh(small_shot) == set()
+
+    # 2. a setting: the single-layer ablation reruns the templates and what follows, not the masks
+    single = Settings(template_mode="single-layer")
+    stale = not_fresh(small_shot, single)
+    assert {"key0/template", "key1/template", "inbetween_frames"} <= stale
+    assert not stale & {"key0/masks", "key0/refined_masks", "key1/masks", "key1/refined_masks"}
+    assert runs.status(small_shot, single).statuses["key0/template"].causes == [
+        "setting template_mode changed (optimized -> single-layer)"]
+    assert executed(runs.run_shot(small_shot, tmp_path / "single", single)) == stale
+    runs.run_shot(small_shot, out)  # back to the default
+
+    # 3. a code change in the template's closure (simulated: the recorded file hashes differ from now)
+    records = runs.code_records()
+    edited = {n: dict(r) for n, r in records.items()}
+    for r in edited.values():
+        if "ops/geometry/template.py" in r:
+            r["ops/geometry/template.py"] = "edited"
+    monkeypatch.setattr(runs, "code_records", lambda: edited)
+    plan = runs.status(small_shot)
+    stale = {n for n, s in plan.statuses.items() if s.state != "fresh"}
+    assert plan.statuses["key0/template"].causes == ["code changed: ops/geometry/template.py"]
+    assert {"key0/template", "key1/template", "inbetween_frames"} <= stale and "key0/masks" not in stale
+    assert stale == set(STAGES) - {"key0/masks", "key0/refined_masks", "key1/masks", "key1/refined_masks"}
+    assert executed(runs.run_shot(small_shot, out)) == stale

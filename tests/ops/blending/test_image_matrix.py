@@ -1,0 +1,119 @@
+"""Tests of ops.image_matrix: dyadic grid, bisection bookkeeping, endpoints, motion, memmap output."""
+import numpy as np
+import pytest
+
+from ops.blending.image_matrix import alpha_grid, bisection_levels, build_image_matrix
+from ops.blending.rife import load_rife
+
+
+@pytest.fixture(scope="module")
+def rife():
+    """The real network (float32, CPU)."""
+    return load_rife()
+
+
+class AveragingFake:
+    """Stand-in for Rife whose midpoint is the pixel average; records each call's batch size."""
+
+    def __init__(self):
+        self.calls = []
+
+    def midpoint(self, img0, img1):
+        """(N, H, W, 4) pair -> (average, flow filled with the batch size)."""
+        self.calls.append(len(img0))
+        return (img0 + img1) / 2, np.full(img0.shape, float(len(img0)), np.float32)
+
+
+def random_frames(t, h=16, w=12, seed=0):
+    """(t, h, w, 4) float32 uniform random RGBA."""
+    return np.random.default_rng(seed).random((t, h, w, 4), dtype=np.float32)
+
+
+def disc_frames(centres, h=64, w=96, cy=32.0, r=10.0):
+    """(T, h, w, 4) float32: a dark disc (alpha = coverage) at each x centre, transparent elsewhere."""
+    yy, xx = np.mgrid[:h, :w].astype(np.float32)
+    img = np.zeros((len(centres), h, w, 4), np.float32)
+    img[..., :3] = 0.1
+    img[..., 3] = np.clip(r + 0.5 - np.hypot(xx[None] - np.asarray(centres, np.float32)[:, None, None], yy - cy), 0, 1)
+    return img
+
+
+def test_alpha_grid_values():
+    """Depth d gives the 2**d + 1 multiples of 1/2**d; depth 0 is refused (no alpha = 1/2)."""
+    np.testing.assert_array_equal(alpha_grid(1), [0.0, 0.5, 1.0])
+    g = alpha_grid(3)
+    assert g.dtype == np.float64 and len(g) == 9
+    np.testing.assert_array_equal(g * 8, np.arange(9))
+    with pytest.raises(ValueError):
+        alpha_grid(0)
+
+
+@pytest.mark.parametrize("depth", [1, 2, 3, 4])
+def test_bisection_fills_each_interior_once_from_known_parents(depth):
+    """Every interior index is filled exactly once, at the midpoint of two already known indices."""
+    n = 2**depth
+    known = {0, n}
+    for triples in bisection_levels(depth):
+        lo, mid, hi = triples.T
+        assert np.all(lo + hi == 2 * mid)
+        assert all(i in known for i in np.r_[lo, hi]) and not any(m in known for m in mid)
+        known |= set(mid.tolist())
+    assert known == set(range(n + 1))
+
+
+@pytest.mark.parametrize("batch", [1, 3, 8])
+def test_averaging_midpoints_give_linear_blend(batch):
+    """With an averaging midpoint, bisection yields (1 - alpha) f0 + alpha f1 exactly, in calls of <= batch."""
+    f0, f1 = random_frames(5), random_frames(5, seed=1)
+    fake = AveragingFake()
+    m = build_image_matrix(f0, f1, np.linspace(0, 1, 5), fake, depth=3, batch=batch)
+    a = m.alphas[None, :, None, None, None]
+    np.testing.assert_allclose(m.frames, (1 - a) * f0[:, None] + a * f1[:, None], atol=1e-6)
+    assert max(fake.calls) <= batch and sum(fake.calls) == 5 * 7  # 2**3 - 1 midpoints per time
+    assert m.frames.shape == (5, 9, 16, 12, 4) and m.flows.shape == (5, 16, 12, 4)
+
+
+def test_flow_is_the_level_one_flow():
+    """The kept flow per time is the one returned by the alpha = 1/2 call (here tagged with its batch size)."""
+    f0, f1 = random_frames(3), random_frames(3, seed=1)
+    m = build_image_matrix(f0, f1, np.linspace(0, 1, 3), AveragingFake(), depth=2, batch=4)
+    # rows chunked by 4 -> level 1 of the single chunk is one call of 3 pairs
+    np.testing.assert_array_equal(m.flows, 3.0)
+
+
+def test_bad_shapes_are_refused():
+    """Mismatched frames, times or out arrays raise ValueError."""
+    f = random_frames(2)
+    with pytest.raises(ValueError):
+        build_image_matrix(f, f[:1], np.zeros(2), AveragingFake())
+    with pytest.raises(ValueError):
+        build_image_matrix(f, f, np.zeros(3), AveragingFake())
+    with pytest.raises(ValueError):
+        build_image_matrix(f, f, np.zeros(2), AveragingFake(), depth=2, out=np.zeros((2, 4, 16, 12, 4), np.float32))
+
+
+def test_real_matrix_endpoints_motion_and_memmap(rife, tmp_path):
+    """Real RIFE: exact endpoints, disc centre moving monotonically ~linearly in alpha, memmap == in-memory."""
+    f0 = disc_frames([36, 40])
+    f1 = disc_frames([52, 40])  # row 1: identical frames
+    times = np.array([0.0, 1.0])
+    m = build_image_matrix(f0, f1, times, rife, depth=3, batch=8)
+    np.testing.assert_array_equal(m.frames[:, 0], f0)
+    np.testing.assert_array_equal(m.frames[:, -1], f1)
+    xx = np.arange(96)[None, :]
+    alpha = m.frames[0, ..., 3]  # (A, H, W)
+    cx = (alpha * xx).sum(axis=(1, 2)) / alpha.sum(axis=(1, 2))
+    assert np.all(np.diff(cx) > 0)
+    np.testing.assert_allclose(cx, 36 + 16 * m.alphas, atol=1.5)
+    np.testing.assert_allclose(m.frames[1], np.broadcast_to(f0[1], m.frames[1].shape), atol=1e-3)
+    assert abs(m.flows[0, 32, 44, 0] + 8) < 1.5 and abs(m.flows[0, 32, 44, 2] - 8) < 1.5
+
+    mm = np.lib.format.open_memmap(tmp_path / "matrix.npy", mode="w+", dtype=np.float32, shape=m.frames.shape)
+    m2 = build_image_matrix(f0, f1, times, rife, depth=3, batch=8, out=mm)
+    assert m2.frames is mm
+    mm.flush()
+    np.testing.assert_array_equal(np.load(tmp_path / "matrix.npy"), m.frames)
+    # one row per chunk and one pair per call: only float noise from other conv batch sizes
+    m3 = build_image_matrix(f0, f1, times, rife, depth=3, batch=1)
+    np.testing.assert_allclose(m3.frames, m.frames, atol=1e-4)
+    np.testing.assert_allclose(m3.flows, m.flows, atol=1e-3)

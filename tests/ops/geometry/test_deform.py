@@ -1,0 +1,136 @@
+"""Tests of ops.deform: injectivity bound, solver convergence without folds, free components, sequences."""
+import time
+
+import numpy as np
+import pytest
+
+from ops.geometry.deform import Deformer, count_flipped, deform_sequence, first_fold_time, max_injective_step
+from ops.geometry.mesh import signed_areas, triangulate_pslg
+from ops.types import Template
+
+W, H = 300.0, 60.0
+MID = np.array([[x, H / 2] for x in np.linspace(10, W - 10, 7)])
+
+
+def strip(offset=(0.0, 0.0)):
+    """Rectangle strip mesh with handle vertices along its midline."""
+    outer = np.array([[0, 0], [W, 0], [W, H], [0, H]], float) + offset
+    res = triangulate_pslg([outer], W * H / 800, points=MID + offset)
+    return res.V, res.F, res.point_vertex
+
+
+def bend(points, degrees):
+    """Rotate the right half of the points about the strip centre."""
+    th = np.deg2rad(degrees)
+    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    c = np.array([W / 2, H / 2])
+    out = points.copy()
+    m = points[:, 0] > W / 2
+    out[m] = c + (points[m] - c) @ R.T
+    return out
+
+
+def test_fold_time_hand_made_triangle():
+    X = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 1.0]])
+    F = np.array([[0, 1, 2]])
+    D = np.array([[0.0, 0.0], [0.0, 0.0], [0.0, -3.0]])  # apex crosses the base at t = 1/3
+    t = first_fold_time(X, D, F)
+    assert np.isclose(t, 1.0 / 3.0)
+    assert signed_areas(X + 0.999 * t * D, F)[0] > 0
+    assert signed_areas(X + 1.001 * t * D, F)[0] < 0
+    assert np.isclose(max_injective_step(X, D, F), 0.8 / 3.0)
+    # Quadratic case: a rotation-like motion whose determinant has a double-root structure.
+    D2 = np.array([[0.0, 0.0], [-4.0, 1.5], [1.0, -2.5]])
+    t2 = first_fold_time(X, D2, F)
+    assert signed_areas(X + 0.999 * t2 * D2, F)[0] > 0
+    assert signed_areas(X + 1.001 * t2 * D2, F)[0] < 0
+    assert max_injective_step(X, np.zeros_like(X), F) == 1.0
+
+
+def test_fold_time_matches_brute_force():
+    V, F, _ = strip()
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        D = rng.standard_normal(V.shape) * 5
+        t = first_fold_time(V, D, F)
+        ts = np.linspace(0, min(t, 10.0) * 0.999, 400)
+        assert all((signed_areas(V + s * D, F) > 0).all() for s in ts)
+        if np.isfinite(t):
+            assert count_flipped(V + 1.001 * t * D, F) > 0
+
+
+@pytest.mark.parametrize("degrees", [40, 120])
+def test_solve_bent_strip(degrees):
+    V, F, h = strip()
+    d = Deformer(V, F, h)
+    t0 = time.perf_counter()
+    res = d.solve(bend(MID, degrees))
+    elapsed = time.perf_counter() - t0
+    assert res.converged and res.grad_norm < 0.01
+    assert count_flipped(res.x, F) == 0
+    assert np.all(np.diff(res.energy_history) <= 0)
+    assert res.energy_history[0] > res.energy > 4.0
+    assert np.abs(res.x[h] - bend(MID, degrees)).max() < 3.0  # handles near targets (pixels)
+    assert elapsed < 5.0  # generous: the machine is shared
+
+
+def test_rest_targets_are_a_fixed_point():
+    V, F, h = strip()
+    res = Deformer(V, F, h).solve(V[h])
+    assert res.iterations == 0 and np.isclose(res.energy, 4.0) and np.allclose(res.x, V)
+
+
+def test_rigid_motion_is_recovered_exactly():
+    V, F, h = strip()
+    th = 0.5
+    R = np.array([[np.cos(th), -np.sin(th)], [np.sin(th), np.cos(th)]])
+    res = Deformer(V, F, h).solve(V[h] @ R.T + [7.0, -3.0], grad_tol=1e-7)
+    assert res.converged
+    assert np.isclose(res.energy, 4.0, atol=1e-4)
+    assert np.abs(res.x - (V @ R.T + [7.0, -3.0])).max() < 1e-3
+
+
+def test_component_without_handles():
+    V1, F1, h = strip()
+    V2, F2, _ = strip(offset=(0.0, 200.0))
+    V = np.concatenate([V1, V2])
+    F = np.concatenate([F1, F2 + len(V1)])
+    d = Deformer(V, F, h)
+    res = d.solve(bend(MID, 60))
+    assert res.converged
+    assert count_flipped(res.x, F) == 0
+    free = slice(len(V1), None)
+    # The handle-free piece has no reason to move: it stays rigid (identity) and does not drift.
+    assert np.abs(res.x[free] - V2).max() < 1e-6
+    single = Deformer(V1, F1, h).solve(bend(MID, 60))
+    # Doubling the area halves every normalized term of the first strip; the free one adds 4 * 1/2.
+    assert np.isclose(res.energy, 0.5 * single.energy + 2.0, rtol=1e-4)
+
+
+def test_folded_start_raises():
+    V, F, h = strip()
+    X = V.copy()
+    X[:, 0] *= -1
+    with pytest.raises(ValueError):
+        Deformer(V, F, h).solve(V[h], x0=X)
+
+
+def test_deform_sequence_orders():
+    V, F, h = strip()
+    J = len(MID)
+    tpl = Template(
+        rest=V, faces=F, face_layer=np.zeros(len(F), np.int64), handles=h, handle_weights=np.eye(J),
+        cut_assignment=[], energy=0.0, trials=1, mode="single-layer",
+    )
+    poses = np.stack([np.concatenate([bend(MID, a), np.zeros((J, 1))], 1) for a in (0, 30, 60)])
+    Xf, Ef, If = deform_sequence(tpl, poses, "forward")
+    Xb, Eb, Ib = deform_sequence(tpl, poses, "backward")
+    assert Xf.shape == (3, len(V), 2) and Ef.shape == (3,) and If.dtype == np.int64
+    assert If[0] == 0 and np.allclose(Xf[0], V)  # key0's template starts at its own rest pose
+    assert np.isclose(Ef[0], 4.0)
+    for X in list(Xf) + list(Xb):
+        assert count_flipped(X, F) == 0
+    # Both orders reach the same minimiser of this convex-ish problem closely.
+    assert np.abs(Xf[2] - Xb[2]).max() < 1.0
+    with pytest.raises(ValueError):
+        deform_sequence(tpl, poses, "sideways")

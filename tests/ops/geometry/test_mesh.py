@@ -1,0 +1,103 @@
+"""Tests of ops.geometry.mesh: CDT with constraint loops, repairs, orientation, boundary loops."""
+import numpy as np
+import pytest
+
+from ops.geometry.mesh import (
+    boundary_loops,
+    points_in_polygon,
+    polygon_area,
+    project_to_polyline,
+    signed_areas,
+    triangulate,
+    triangulate_pslg,
+    vertex_components,
+)
+
+
+def square(x0, y0, s, n_side=1):
+    """Closed square polyline (4 * n_side, 2), counter-clockwise in raw coordinates."""
+    t = np.linspace(0, 1, n_side, endpoint=False)[:, None]
+    c = np.array([[x0, y0], [x0 + s, y0], [x0 + s, y0 + s], [x0, y0 + s]], float)
+    return np.concatenate([c[i] + t * (c[(i + 1) % 4] - c[i]) for i in range(4)])
+
+
+def test_area_and_orientation_and_max_area():
+    outer = square(0, 0, 100, 3)
+    V, F = triangulate([outer], max_area=20.0)
+    a = signed_areas(V, F)
+    assert (a > 0).all()
+    assert a.max() <= 20.0 + 1e-9
+    assert np.isclose(a.sum(), 100 * 100)
+    # Clockwise input gives the same positive orientation.
+    V2, F2 = triangulate([outer[::-1]], max_area=20.0)
+    assert (signed_areas(V2, F2) > 0).all()
+
+
+def test_internal_loop_is_constrained_and_hole_is_removed():
+    outer, inner = square(0, 0, 100, 2), square(30.3, 30.7, 40, 2)
+    res = triangulate_pslg([outer, inner], max_area=30.0)
+    lv = res.loop_vertex[1]
+    # Every inner-loop input vertex is a mesh vertex at the same position.
+    assert np.allclose(res.V[lv], inner)
+    # The inner polygon is a union of faces: areas inside/outside add up exactly.
+    inside = points_in_polygon(res.V[res.F].mean(1), inner)
+    a = signed_areas(res.V, res.F)
+    assert np.isclose(a[inside].sum(), 40 * 40)
+    assert np.isclose(a.sum(), 100 * 100)
+    V, F = triangulate([outer, inner], max_area=30.0, holes=np.array([[50.0, 50.0]]))
+    assert np.isclose(signed_areas(V, F).sum(), 100 * 100 - 40 * 40)
+    loops = boundary_loops(F)
+    assert len(loops) == 2
+    assert np.isclose(abs(polygon_area(V[loops[0]])), 100 * 100)
+    assert np.isclose(abs(polygon_area(V[loops[1]])), 40 * 40)
+
+
+def test_duplicates_repaired_and_reported():
+    outer = square(0, 0, 50, 2)
+    dup = np.insert(outer, 3, outer[2], axis=0)  # zero-length segment
+    inner = square(10, 10, 20)  # passed twice: every vertex and segment repeated
+    warns: list[str] = []
+    V, F = triangulate([dup, inner, inner.copy()], max_area=10.0, warnings=warns)
+    assert (signed_areas(V, F) > 0).all()
+    assert any("duplicate" in w for w in warns)
+    assert any("zero-length" in w for w in warns)
+    assert any("repeated segment" in w for w in warns)
+
+
+def test_extra_points_become_vertices_and_outside_points_dropped():
+    outer = square(0, 0, 50)
+    pts = np.array([[12.5, 17.25], [25.0, 25.0], [80.0, 10.0]])
+    res = triangulate_pslg([outer], 10.0, points=pts)
+    assert np.allclose(res.V[res.point_vertex[:2]], pts[:2])
+    assert res.point_vertex[2] == -1
+    assert any("outside" in w for w in res.warnings)
+
+
+def test_points_in_polygon_matches_analytic_disc():
+    th = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    P = np.stack([np.cos(th), np.sin(th)], 1) * 10
+    rng = np.random.default_rng(0)
+    Q = rng.uniform(-12, 12, (2000, 2))
+    r = np.linalg.norm(Q, axis=1)
+    got = points_in_polygon(Q, P)
+    clear = np.abs(r - 10) > 0.01
+    assert np.array_equal(got[clear], (r < 10)[clear])
+
+
+def test_project_to_polyline_parameter():
+    P = square(0, 0, 10)
+    param, dist = project_to_polyline(np.array([[5.0, -1.0], [11.0, 2.5], [0.0, 0.0]]), P)
+    assert np.allclose(param, [0.5, 1.25, 0.0])
+    assert np.allclose(dist, [1.0, 1.0, 0.0])
+
+
+def test_components():
+    V1, F1 = triangulate([square(0, 0, 10)], 5.0)
+    F = np.concatenate([F1, F1 + len(V1)])
+    comp = vertex_components(2 * len(V1) + 1, F)
+    assert len(np.unique(comp)) == 3
+
+
+def test_degenerate_outer_raises():
+    with pytest.raises(ValueError):
+        triangulate([np.array([[0.0, 0.0], [1.0, 1.0], [0.0, 0.0]])], 1.0)

@@ -1,0 +1,122 @@
+"""Tests of ops.template: front-sheet CDT with occlusion constraints, handles and their layers."""
+import cv2
+import numpy as np
+import pytest
+
+from ops.geometry.deform import count_flipped
+from ops.geometry.mesh import points_in_polygon, project_to_polyline, signed_areas
+from ops.geometry.template import build_template, handle_points, snap_inside
+from ops.geometry.topology import optimize_topology
+from ops.types import RefinedMasks, Skeleton
+
+
+def capsule(a, b, rad, step):
+    """Closed capsule polyline around segment a-b (pixels), vertices about `step` px apart on the caps."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    u = (b - a) / np.linalg.norm(b - a)
+    ang0 = np.arctan2(u[1], u[0])
+    n = max(int(np.pi * rad / step), 4)
+    t1 = ang0 + np.linspace(-np.pi / 2, np.pi / 2, n + 1)
+    t2 = ang0 + np.linspace(np.pi / 2, 3 * np.pi / 2, n + 1)
+    return np.concatenate([b + rad * np.stack([np.cos(t1), np.sin(t1)], 1), a + rad * np.stack([np.cos(t2), np.sin(t2)], 1)])
+
+
+def capsule_scene(scale=1.0, junctions=(3, 12)):
+    """Torso capsule with a forearm capsule drawn in front of it (one occlusion region, 20 boundary vertices)."""
+    s = scale
+    sk = Skeleton(joints=("hips", "neck", "shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1, 2, 3]))
+    pose0 = np.array([[64, 100, 0], [64, 30, 0], [80, 40, -1], [78, 62, -1], [48, 66, -2]], float)
+    pose0[:, :2] *= s
+    pose1 = pose0.copy()
+    pose1[4, :2] = np.array([70.0, 90.0]) * s  # the forearm swings down
+    outer = capsule(pose0[0, :2], pose0[1, :2], 26 * s, 4 * s)
+    occ = capsule(pose0[3, :2], pose0[4, :2], 6 * s, 2 * s)
+    H = W = int(128 * s)
+    fg = np.zeros((H, W), np.uint8)
+    om = np.zeros((H, W), np.uint8)
+    cv2.fillPoly(fg, [np.round(outer).astype(np.int32)], 1)
+    cv2.fillPoly(om, [np.round(occ).astype(np.int32)], 1)
+    refined = RefinedMasks(
+        foreground=fg.astype(bool), occlusion=[om.astype(bool)], front_bones=[np.array([3])],
+        boundaries=[occ], junctions=[np.array(junctions, np.int64)], foreground_boundary=outer,
+    )
+    return refined, sk, pose0, pose1
+
+
+def test_handle_points_and_weights():
+    _, sk, pose, _ = capsule_scene()
+    P, W, names = handle_points(pose, sk)
+    J, B = 5, 4
+    assert P.shape == (J + B, 2) and W.shape == (J + B, J)
+    assert np.allclose(W.sum(1), 1.0)
+    assert np.allclose(P[:J], pose[:, :2])
+    assert np.allclose(P[J:], 0.5 * (pose[sk.bones[:, 0], :2] + pose[sk.bones[:, 1], :2]))
+    assert names[J] == "hips-neck midpoint"
+
+
+def test_template_mesh_and_handles():
+    refined, sk, pose, _ = capsule_scene()
+    base = build_template(refined, pose, sk)
+    assert (signed_areas(base.V, base.F) > 0).all()
+    assert 800 <= len(base.F) <= 2500
+    # Handles sit exactly at the joints and bone midpoints.
+    P, W, _ = handle_points(pose, sk)
+    assert np.allclose(base.V[base.handle_vertex], P)
+    assert np.allclose(base.handle_weights, W)
+    # The region is a union of faces whose area equals the polygon's.
+    area = signed_areas(base.V, base.F)
+    occ = refined.boundaries[0]
+    poly = 0.5 * abs(np.dot(occ[:, 0], np.roll(occ[:, 1], -1)) - np.dot(np.roll(occ[:, 0], -1), occ[:, 1]))
+    assert np.isclose(area[base.face_region == 0].sum(), poly)
+    # Boundary polyline vertices (T-junctions included) are mesh vertices.
+    assert np.allclose(base.V[base.boundary_vertex[0]], occ)
+    # Inside the forearm region: elbow, hand, forearm midpoint (front bone 3) and the hips-neck midpoint (back).
+    inside = points_in_polygon(P, occ)
+    assert np.nonzero(inside)[0].tolist() == [3, 4, 5, 8]
+    assert base.handle_layer.tolist() == [0, 0, 0, 0, 0, 1, 0, 0, 0]
+
+
+def test_handle_layers_follow_front_bones():
+    refined, sk, pose, _ = capsule_scene()
+    refined.front_bones[0] = np.array([], np.int64)  # nothing in front: every inside handle on the pocket
+    assert np.nonzero(build_template(refined, pose, sk).handle_layer)[0].tolist() == [3, 4, 5, 8]
+    refined.front_bones[0] = np.array([2])  # upper arm in front: its elbow (shared with bone 3) stays in front
+    assert np.nonzero(build_template(refined, pose, sk).handle_layer)[0].tolist() == [4, 5, 8]
+
+
+def test_single_layer_ignores_occlusions():
+    refined, sk, pose, pose1 = capsule_scene()
+    base = build_template(refined, pose, sk, mode="single-layer")
+    assert base.n_regions == 0 and (base.face_region == -1).all()
+    tpl = optimize_topology(refined, pose, pose1, sk, mode="single-layer")
+    assert tpl.trials == 1 and tpl.cut_assignment == [] and (tpl.face_layer == 0).all()
+    assert np.isfinite(tpl.energy) and tpl.energy > 4.0
+    assert count_flipped(tpl.rest, tpl.faces) == 0
+
+
+def test_optimized_template_rest_state():
+    refined, sk, pose, pose1 = capsule_scene()
+    tpl = optimize_topology(refined, pose, pose1, sk)
+    assert count_flipped(tpl.rest, tpl.faces) == 0
+    assert np.allclose(tpl.handle_targets(pose), tpl.rest[tpl.handles])
+    # The pocket handle points at a layer-1 vertex, the others at front-sheet vertices.
+    in_front = np.isin(tpl.handles, tpl.faces[tpl.face_layer == 0])
+    in_pocket = np.isin(tpl.handles, tpl.faces[tpl.face_layer == 1])
+    assert in_pocket[5] and not in_front[5]
+    assert np.delete(in_front, 5).all() and not np.delete(in_pocket, 5).any()
+    assert tpl.trials == 2 and np.isfinite(tpl.energy)
+
+
+def test_handle_outside_is_snapped_with_warning():
+    square = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
+    P, warns = snap_inside(np.array([[5.0, 5.0], [12.0, 4.0]]), square, ["a", "b"])
+    assert np.allclose(P[0], [5, 5]) and np.allclose(P[1], [9.0, 4.0])
+    assert len(warns) == 1 and "'b'" in warns[0]
+    _, d = project_to_polyline(P[1:], square)
+    assert np.isclose(d[0], 1.0)
+
+
+def test_bad_mode():
+    refined, sk, pose, _ = capsule_scene()
+    with pytest.raises(ValueError):
+        build_template(refined, pose, sk, mode="triple")

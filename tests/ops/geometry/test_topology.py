@@ -1,0 +1,152 @@
+"""Tests of ops.topology: switching-rule counts, incision by re-indexing, seeded search."""
+import itertools
+
+import numpy as np
+import pytest
+
+from ops.geometry.deform import count_flipped
+from ops.geometry.mesh import boundary_loops, project_to_polyline, vertex_components
+from ops.geometry.template import build_template
+from ops.geometry.topology import (
+    alternating,
+    count_assignments,
+    enumerate_assignments,
+    evaluate,
+    incise,
+    odd_assignment,
+    optimize_topology,
+    segment_labels,
+)
+from ops.types import RefinedMasks, Skeleton
+from tests.ops.geometry.test_template import capsule_scene
+
+
+def edge_labels(a, n):
+    """Label of each polyline edge i -> i+1 under assignment a."""
+    return tuple(segment_labels(a, np.arange(n) + 0.5).tolist())
+
+
+def brute_force(n, junctions):
+    """All edge labelings whose label changes exactly at the junctions (+ one cusp when k is odd)."""
+    jn, k = set(junctions), len(junctions)
+    out = set()
+    for lab in itertools.product((0, 1), repeat=n):
+        flips = {i for i in range(n) if lab[i - 1] != lab[i]}
+        if flips == jn or (k % 2 == 1 and jn < flips and len(flips) == k + 1):
+            out.add(lab)
+    return out
+
+
+@pytest.mark.parametrize("n,junctions", [(8, []), (8, [2, 5]), (9, [0, 3, 4, 7]), (8, [3]), (9, [1, 4, 6]), (7, [0, 1, 2, 3, 4])])
+def test_assignment_counts_match_switching_rule(n, junctions):
+    opts = enumerate_assignments(n, np.array(junctions))
+    k = len(junctions)
+    assert len(opts) == count_assignments(n, k) == (2 if k % 2 == 0 else 2 * (n - k))
+    labs = {edge_labels(a, n) for a in opts}
+    assert len(labs) == len(opts)  # all distinct
+    assert labs == brute_force(n, junctions)
+    for a in opts:
+        assert len(a.switches) % 2 == 0
+        if k % 2:
+            assert a.cusp >= 0 and a.cusp not in junctions
+
+
+def test_odd_assignment_indexing_and_errors():
+    a = odd_assignment(10, np.array([4]), 5)  # cusp = third non-junction vertex (2), start = 1
+    assert a.cusp == 2 and a.switches.tolist() == [2, 4] and a.labels.tolist() == [1, 0]
+    with pytest.raises(ValueError):
+        alternating(np.array([1, 2, 3]), 0)
+
+
+def square_scene(junctions):
+    """60 px square foreground with a 20 px square occlusion region (8 boundary vertices) in the middle."""
+    def sq(x0, s, n_side):
+        t = np.linspace(0, 1, n_side, endpoint=False)[:, None]
+        c = np.array([[x0, x0], [x0 + s, x0], [x0 + s, x0 + s], [x0, x0 + s]], float)
+        return np.concatenate([c[i] + t * (c[(i + 1) % 4] - c[i]) for i in range(4)])
+
+    sk = Skeleton(joints=("a", "b"), parents=np.array([-1, 0]))
+    pose = np.array([[10.0, 10.0, 0.0], [50.0, 50.0, 0.0]])
+    refined = RefinedMasks(
+        foreground=np.ones((61, 61), bool), occlusion=[np.zeros((61, 61), bool)], front_bones=[np.zeros(0, np.int64)],
+        boundaries=[sq(20.0, 20.0, 2)], junctions=[np.array(junctions, np.int64)], foreground_boundary=sq(0.0, 60.0, 3),
+    )
+    return build_template(refined, pose, sk, max_area=8.0), refined, sk, pose
+
+
+def region_boundary(base):
+    """Front-sheet vertices lying on the region polygon (the region's boundary cycle)."""
+    rv = np.unique(base.F[base.face_region == 0])
+    _, d = project_to_polyline(base.V[rv], base.boundaries[0])
+    return rv[d < 1e-9]
+
+
+@pytest.mark.parametrize("start", [0, 1])
+def test_incision_two_junctions(start):
+    base, *_ = square_scene([0, 4])
+    n0, m0 = len(base.V), len(base.F)
+    rv = np.unique(base.F[base.face_region == 0])
+    ring = region_boundary(base)
+    a = alternating(base.junctions[0], start)
+    inc = incise(base, [a])
+    assert len(inc.rest) == n0 + len(rv) - 2  # every region vertex copied except the 2 switch vertices
+    assert np.bincount(inc.face_layer).tolist() == [m0, int((base.face_region == 0).sum())]
+    assert count_flipped(inc.rest, inc.faces) == 0
+    assert len(np.unique(vertex_components(len(inc.rest), inc.faces))) == 1  # sewn at the switches
+    loops = boundary_loops(inc.faces)
+    assert len(loops) == 2
+    assert sorted(len(l) for l in loops) == sorted([len(boundary_loops(base.F)[0]), len(ring)])
+    # One loop runs along the region boundary: front copies on 1-segments, back copies on 0-segments.
+    on_region = [project_to_polyline(inc.rest[l], base.boundaries[0])[1].max() < 1e-9 for l in loops]
+    assert sorted(on_region) == [False, True]
+    cut = loops[int(np.argmax(on_region))]
+    assert len(cut) == len(ring)
+    param, _ = project_to_polyline(inc.rest[cut], base.boundaries[0])
+    sw = np.isin(cut, base.boundary_vertex[0][base.junctions[0]])
+    lab = segment_labels(a, param)
+    assert sw.sum() == 2
+    assert ((cut[~sw] < n0) == (lab[~sw] == 1)).all()
+    # The pocket handle (midpoint of a back bone, at the square's centre) is a back copy.
+    assert inc.handles[2] >= n0 and np.allclose(inc.rest[inc.handles[2]], [30.0, 30.0])
+
+
+@pytest.mark.parametrize("start", [0, 1])
+def test_incision_no_junction_detaches_a_sheet(start):
+    base, *_ = square_scene([])
+    inc = incise(base, [alternating(np.zeros(0, np.int64), start)])
+    rv = np.unique(base.F[base.face_region == 0])
+    assert len(inc.rest) == len(base.V) + len(rv)
+    comp = vertex_components(len(inc.rest), inc.faces)
+    assert len(np.unique(comp)) == 2
+    loops = boundary_loops(inc.faces)
+    # The sewn sheet has no hole (front or pocket fills it): its outer rim and the detached sheet's rim.
+    assert len(loops) == 2
+    assert sorted(len(l) for l in loops) == sorted([len(region_boundary(base)), len(boundary_loops(base.F)[0])])
+    # start 0: the pocket (layer 1) is the detached piece; start 1: the region's front is.
+    pocket_comp = np.unique(comp[inc.faces[inc.face_layer == 1]])
+    front_region_comp = np.unique(comp[base.F[base.face_region == 0]])
+    outside_comp = np.unique(comp[inc.faces[(inc.face_layer == 0)][~(base.face_region == 0)]])
+    assert len(pocket_comp) == 1 and len(outside_comp) == 1
+    assert (pocket_comp[0] != outside_comp[0]) == (start == 0)
+    assert (front_region_comp[0] != outside_comp[0]) == (start == 1)
+
+
+def test_optimize_picks_the_lowest_energy():
+    refined, sk, p0, p1 = capsule_scene()
+    tpl = optimize_topology(refined, p0, p1, sk)
+    base = build_template(refined, p0, sk)
+    targets = base.handle_weights @ p1[:, :2]
+    energies = [evaluate(base, [a], targets)[0] for a in enumerate_assignments(20, refined.junctions[0])]
+    assert tpl.trials == 2
+    assert np.isclose(tpl.energy, min(energies))
+    assert tpl.cut_assignment[0].tolist() == ([0, 1] if energies[0] <= energies[1] else [1, 0])
+
+
+def test_odd_search_is_reproducible():
+    refined, sk, p0, p1 = capsule_scene(junctions=(5,))
+    a = optimize_topology(refined, p0, p1, sk, seed=0)
+    b = optimize_topology(refined, p0, p1, sk, seed=0)
+    assert [x.tolist() for x in a.cut_assignment] == [x.tolist() for x in b.cut_assignment]
+    assert a.energy == b.energy and a.trials == b.trials
+    assert 1 < a.trials <= 30
+    assert len(a.cut_assignment[0]) == 2 and count_flipped(a.rest, a.faces) == 0

@@ -1,0 +1,169 @@
+"""Occlusion-mask refinement by T-junctions: polylines, junction snapping, deformation."""
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from ops.geometry.mesh import polygon_area
+from ops.segmentation.masks import build_masks
+from ops.segmentation.refine import (
+    mask_boundary,
+    merge_clicks,
+    rasterize,
+    refine_masks,
+    refine_region,
+    simplify,
+    snap_junctions,
+)
+from tests.ops.segmentation.test_masks import crossing_scene, ellipse_mask, iou
+
+
+def point_to_polyline(Q: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """(k,) distance, pixels, from points Q (k, 2) to the closed polyline P (n, 2)."""
+    a, b = P, np.roll(P, -1, axis=0)
+    e = b - a
+    s = np.clip(((Q[:, None] - a[None]) * e[None]).sum(-1) / np.maximum((e**2).sum(1), 1e-12), 0, 1)
+    return np.linalg.norm(Q[:, None] - (a[None] + s[..., None] * e[None]), axis=2).min(axis=1)
+
+
+def raw_contour(mask: np.ndarray) -> np.ndarray:
+    """(n, 2) float64 unsimplified outer contour of a mask's largest component."""
+    cs, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    return max(cs, key=len).reshape(-1, 2).astype(np.float64)
+
+
+def blob() -> np.ndarray:
+    """(96, 96) bool region with curved and straight parts (ellipse union rectangle)."""
+    m = ellipse_mask((96, 96), (40, 48), (26, 18))
+    m[40:60, 50:80] = True
+    return m
+
+
+def test_mask_boundary_is_a_2px_douglas_peucker_of_the_contour():
+    m = blob()
+    P, raw = mask_boundary(m), raw_contour(m)
+    assert len(P) < len(raw) / 3  # it did simplify
+    assert not np.array_equal(P[0], P[-1])
+    assert polygon_area(P) > 0
+    assert point_to_polyline(raw, P).max() <= 2.0 + 1e-6  # every contour point within eps of the polyline
+    assert point_to_polyline(P, raw).max() <= 1e-9  # every vertex lies on the contour
+    assert iou(rasterize(P, m.shape), m) > 0.95
+
+
+def test_simplify_keeps_requested_vertices():
+    raw = raw_contour(blob())
+    keep = np.array([5, 77, 140])
+    Q, idx = simplify(raw, keep=keep)
+    np.testing.assert_array_equal(Q[idx], raw[keep])
+    assert np.all(np.diff(idx) > 0)
+    assert point_to_polyline(raw, Q).max() <= 2.0 + 1e-6
+
+
+def test_three_adjacent_clicks_become_one():
+    clicks = np.array([[30.0, 30.0], [31.0, 30.0], [31.0, 31.0], [60.0, 60.0]])
+    merged, warnings = merge_clicks(clicks)
+    assert len(merged) == 2 and len(warnings) == 1
+    assert np.allclose(merged[np.argmin(merged[:, 0])], [30 + 2 / 3, 30 + 1 / 3])
+
+
+def test_junction_outside_foreground_snapped_and_far_one_dropped():
+    fg = np.zeros((80, 80), bool)
+    fg[10:70, 10:70] = True
+    region = np.zeros_like(fg)
+    region[30:50, 50:70] = True  # touches the foreground's right edge x = 69
+    outside = [72.0, 40.0]  # 3 px right of the foreground (and of the region)
+    far = [15.0, 15.0]  # inside the foreground, > 12 px from the region
+    per, warnings = snap_junctions(np.array([outside, far, [72.5, 40.5], [73.0, 39.5]]), [region], fg)
+    assert len(per[0]) == 1
+    x, y = per[0][0]
+    assert fg[int(y), int(x)] and x == 69  # on the foreground boundary
+    assert any("merged" in w for w in warnings)
+    assert any("snapped" in w for w in warnings)
+    assert any("dropped" in w for w in warnings)
+
+
+def test_junctions_go_to_nearest_region():
+    fg = np.ones((80, 80), bool)
+    a = np.zeros_like(fg)
+    a[10:30, 10:30] = True
+    b = np.zeros_like(fg)
+    b[40:70, 40:70] = True
+    per, _ = snap_junctions(np.array([[32.0, 20.0], [38.0, 50.0], [45.0, 60.0], [55.0, 55.0]]), [a, b], fg)
+    assert len(per[0]) == 1 and len(per[1]) == 2  # (55, 55) is 15 px deep inside b: dropped
+
+
+def test_refine_region_passes_through_junctions():
+    fg = np.zeros((96, 96), bool)
+    fg[4:92, 4:92] = True
+    m = blob()
+    raw = raw_contour(m)
+    normals_off = np.array([[40.0, 48 - 18 - 4], [40 + 26 + 3, 45.0], [65.0, 62.0]])  # 3-4 px off the boundary
+    assert point_to_polyline(normals_off, raw).min() > 2.0
+    warnings: list[str] = []
+    refined, P, idx = refine_region(m, normals_off, fg, warnings)
+    assert len(idx) == 3 and np.all(np.diff(idx) > 0)
+    d = np.linalg.norm(P[idx][:, None] - normals_off[None], axis=2).min(axis=1)
+    assert d.max() <= 0.5
+    assert not (refined & ~fg).any()
+    assert abs(int(refined.sum()) - int(m.sum())) < 0.15 * m.sum()
+    assert polygon_area(P) > 0 and not np.array_equal(P[0], P[-1])
+    far = np.linalg.norm(P[:, None] - normals_off[None], axis=2).min(axis=1) > 20
+    assert far.sum() >= 2 and point_to_polyline(P[far], raw).max() <= 1.0  # held away from the junctions
+    # the raster follows the polyline: each junction pixel is now inside or on the region's edge
+    for x, y in normals_off:
+        assert refined[int(round(y)) - 1 : int(round(y)) + 2, int(round(x)) - 1 : int(round(x)) + 2].any()
+
+
+def test_refine_region_stays_inside_foreground():
+    fg = np.zeros((96, 96), bool)
+    fg[10:86, 10:60] = True
+    m = np.zeros_like(fg)
+    m[30:60, 30:60] = True  # its right side is the foreground's edge
+    J = np.array([[59.0, 25.0], [45.0, 64.0]])  # pulls the region up along the edge and down
+    refined, P, idx = refine_region(m, J, fg)
+    assert not (refined & ~fg).any()
+    d = np.linalg.norm(P[idx][:, None] - J[None], axis=2).min(axis=1)
+    assert d.max() <= 0.5
+
+
+def test_refine_region_without_junctions_is_unchanged():
+    fg = np.ones((96, 96), bool)
+    m = blob()
+    refined, P, idx = refine_region(m, np.zeros((0, 2)), fg)
+    assert np.array_equal(refined, m) and len(idx) == 0
+    np.testing.assert_array_equal(P, mask_boundary(m))
+
+
+def test_refine_masks_on_crossing_improves_the_prediction():
+    drawing, pose, skeleton, true, _, _ = crossing_scene()
+    masks = build_masks(drawing, pose, skeleton)
+    contour = raw_contour(true)
+    s, d = contour.sum(1), contour[:, 0] - contour[:, 1]
+    corners = contour[[s.argmin(), s.argmax(), d.argmin(), d.argmax()]]  # where the arm's outline meets the torso's
+    refined = refine_masks(masks, corners)
+    best = int(np.argmax([iou(r, true) for r in refined.occlusion]))
+    before = max(iou(r, true) for r in masks.occlusion)
+    assert iou(refined.occlusion[best], true) > before + 0.05
+    B, idx = refined.boundaries[best], refined.junctions[best]
+    assert len(idx) == 4 and np.all(np.diff(idx) > 0)
+    assert np.linalg.norm(B[idx][:, None] - corners[None], axis=2).min(axis=1).max() <= 0.5
+    assert polygon_area(refined.foreground_boundary) > 0
+    assert len(refined.occlusion) == len(refined.front_bones) == len(refined.boundaries) == len(refined.junctions)
+    assert refined.warnings[: len(masks.warnings)] == masks.warnings
+
+
+def test_two_junctions_projecting_onto_one_corner_get_distinct_vertices():
+    fg = np.ones((96, 96), bool)
+    m = np.zeros_like(fg)
+    m[30:60, 30:60] = True
+    J = np.array([[61.0, 27.0], [64.0, 29.0]])  # both nearest to the corner (59, 30)
+    refined, P, idx = refine_region(m, J, fg)
+    assert len(np.unique(idx)) == 2
+    d = np.linalg.norm(P[idx][:, None] - J[None], axis=2).min(axis=1)
+    assert d.max() <= 0.5
+    assert abs(int(refined.sum()) - int(m.sum())) < 0.15 * m.sum()
+
+
+def test_rasterize_inverts_the_raw_contour():
+    m = blob()
+    assert np.array_equal(rasterize(raw_contour(m), m.shape), m)
