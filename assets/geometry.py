@@ -61,7 +61,7 @@ def _refined(k: int):
         meta = {"regions": len(refined.occlusion), "t_junctions": int(sum(len(j) for j in refined.junctions)),
                 "boundary_vertices": [len(b) for b in refined.boundaries], "warnings": refined.warnings}
         img = preview.mask_overlay(env.drawing(k), refined.foreground, refined.occlusion,
-                                   [refined.foreground_boundary, *refined.boundaries], pts)
+                                   [*refined.domain, *refined.boundaries], pts)
         return StageResult(refined, meta, img)
 
     return compute
@@ -96,7 +96,8 @@ def _textured(k: int):
         shot, s = env.shot, env.settings
         textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
                                         env.read(f"key{1 - k}/refined_masks"), env.drawing(k), env.drawing(1 - k),
-                                        shot.key_pose(1 - k), env.resource("inpainter").get(), s.mu, s.grad_tol, s.max_iter)
+                                        shot.key_pose(k), shot.key_pose(1 - k), env.resource("inpainter").get(), s.mu,
+                                        s.grad_tol, s.max_iter)
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),

@@ -22,7 +22,7 @@ def _lane(k: int) -> dict[str, tuple[str, ...]]:
         f"key{k}/refined_masks": (f"key{k}/masks", f"key{k}/t_junctions"),
         f"key{k}/template": (f"key{k}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
         f"key{k}/textured_template": (f"key{k}/template", f"key{k}/refined_masks", f"key{k}/drawing", f"key{o}/drawing",
-                                      f"key{o}/refined_masks", f"key{o}/pose"),
+                                      f"key{o}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
         f"key{k}/deformed_frames": (f"key{k}/textured_template", "motion"),
     }
 

@@ -50,7 +50,8 @@ def refined_masks(pose: np.ndarray, junctions: tuple[int, ...]) -> RefinedMasks:
     cv2.fillPoly(om, [np.round(occ).astype(np.int32)], 1)
     return RefinedMasks(
         foreground=fg.astype(bool), occlusion=[om.astype(bool)], front_bones=[np.array([3])],
-        boundaries=[occ], junctions=[np.array(junctions, np.int64)], foreground_boundary=outer,
+        boundaries=[occ], junctions=[np.array(junctions, np.int64)], domain=[outer], domain_holes=np.zeros((0, 2)),
+        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32),
     )
 
 

@@ -60,6 +60,8 @@ class Masks:
     occlusion: list[np.ndarray]  # per region (H, W) bool, inside foreground, sorted back to front
     front_bones: list[np.ndarray]  # per region (b,) int64 bone indices drawn in front in that region
     source: str  # "manual" | "predicted" | "mixed"
+    coverage: np.ndarray  # (H, W) float32 in [0, 1]: the character's alpha, fractional on soft edges, 0 on paper
+    paper: np.ndarray  # (H, W, 3) float32 paper colour model: drawing = coverage * colour + (1 - coverage) * paper
     warnings: list[str] = field(default_factory=list)
 
 
@@ -72,8 +74,37 @@ class RefinedMasks:
     front_bones: list[np.ndarray]  # per region (b,) int64
     boundaries: list[np.ndarray]  # per region (n, 2) float64 closed polyline (first != last), pixels, DP 2 px
     junctions: list[np.ndarray]  # per region (k,) int64 indices into that region's boundary polyline
-    foreground_boundary: np.ndarray  # (m, 2) float64 outer boundary polyline, pixels
+    domain: list[np.ndarray]  # closed polylines (n_i, 2) float64, pixels: outlines of the area to mesh (every
+    #                           pixel with coverage > 0, a little dilated), holes' outlines included
+    domain_holes: np.ndarray  # (h, 2) float64 one point inside each hole of the domain (enclosed paper), pixels
+    coverage: np.ndarray  # (H, W) float32 character alpha (Masks.coverage)
+    paper: np.ndarray  # (H, W, 3) float32 paper colour model (Masks.paper)
     warnings: list[str] = field(default_factory=list)
+
+
+MIN_BONE_PX = 1e-6  # shorter bones (two joints at one spot) have no direction to carry an offset
+
+
+def bone_frames(xy: np.ndarray, frames: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit (along, across) axes (h, 2) each of the bones `frames` (h, 2) at joints xy (J, 2).
+
+    A handle with no bone (-1), or whose bone has collapsed to a point, keeps the image axes: its offset then
+    only translates with the skeleton.
+    """
+    d = np.tile([1.0, 0.0], (len(frames), 1))
+    ok = frames[:, 0] >= 0
+    d[ok] = xy[frames[ok, 1]] - xy[frames[ok, 0]]
+    n = np.linalg.norm(d, axis=1, keepdims=True)
+    along = np.where(n > MIN_BONE_PX, d / np.maximum(n, MIN_BONE_PX), [1.0, 0.0])
+    return along, np.stack([-along[:, 1], along[:, 0]], axis=1)
+
+
+def handle_targets(weights: np.ndarray, offsets: np.ndarray, frames: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(h, 2) float64 targets of handles at a (J, 3) pose: their skeleton points weights (h, J) @ joints plus their
+    offsets (h, 2) (along, across) turned with their bones frames (h, 2); see ops.geometry.handles."""
+    xy = np.asarray(pose, np.float64)[:, :2]
+    along, across = bone_frames(xy, np.asarray(frames, np.int64))
+    return weights @ xy + offsets[:, :1] * along + offsets[:, 1:] * across
 
 
 @dataclass
@@ -88,7 +119,9 @@ class Template:
     faces: np.ndarray  # (m, 3) int64, counter-clockwise in image coordinates (y down -> positive signed area)
     face_layer: np.ndarray  # (m,) int64 layer of each face
     handles: np.ndarray  # (h,) int64 vertex indices constrained by the pose term
-    handle_weights: np.ndarray  # (h, J) float64: handle target = handle_weights @ joints_xy
+    handle_weights: np.ndarray  # (h, J) float64: skeleton point of each handle = handle_weights @ joints_xy
+    handle_offsets: np.ndarray  # (h, 2) float64 (along, across) its bone, pixels: where the handle sits off that point
+    handle_frames: np.ndarray  # (h, 2) int64 joints (parent, child) of the bone the offset turns with, -1 if none
     cut_assignment: list[np.ndarray]  # per region (s,) int8, per boundary segment 0 = sewn to front, 1 = sewn to back
     energy: float  # deformation energy to the other keyframe's pose with the chosen topology
     trials: int  # topologies evaluated
@@ -96,8 +129,8 @@ class Template:
     warnings: list[str] = field(default_factory=list)
 
     def handle_targets(self, pose: np.ndarray) -> np.ndarray:
-        """(h, 2) float64 handle target positions for a (J, 3) pose."""
-        return self.handle_weights @ pose[:, :2]
+        """(h, 2) float64 handle target positions for a (J, 3) pose (ops.geometry.handles)."""
+        return handle_targets(self.handle_weights, self.handle_offsets, self.handle_frames, pose)
 
 
 @dataclass
@@ -106,9 +139,10 @@ class TexturedTemplate:
 
     template: Template
     weights: np.ndarray  # (n, J) float64 bounded biharmonic weights, rows sum to 1
-    face_source: np.ndarray  # (m,) int64: 0 = drawing, 1 = other keyframe, 2 = inpainted
-    texture: np.ndarray  # (H, W, 4) float32 front texture = the keyframe drawing, alpha = foreground
-    back_texture: np.ndarray  # (H, W, 4) float32 texture of the pockets in rest coordinates
+    face_source: np.ndarray  # (m,) int64: 0 = the drawing (the layer in front at the keyframe), 1 = the other
+    #                          keyframe, 2 = inpainted (1 and 2: the layer behind, textured from back_texture)
+    texture: np.ndarray  # (H, W, 4) float32 the drawing's colour unmixed from the paper, alpha = coverage (straight)
+    back_texture: np.ndarray  # (H, W, 4) float32 texture of the hidden layers in rest coordinates
     back_inpainted: np.ndarray  # (H, W) bool pixels of back_texture that were inpainted
 
     def face_depth(self, pose: np.ndarray) -> np.ndarray:

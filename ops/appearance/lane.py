@@ -16,14 +16,13 @@ from ops.types import DeformedSequence, RefinedMasks, Template, TexturedTemplate
 
 
 def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks, drawing: np.ndarray,
-                 other_drawing: np.ndarray, other_pose: np.ndarray, inpainter: Inpainter, mu: float = 200.0,
-                 grad_tol: float = 0.01, max_iter: int = 5000) -> tuple[TexturedTemplate, float]:
-    """Depth weights + textures (§5.1); drawings (H, W, 4), other_pose (J, 3) -> (textured, energy at the other pose)."""
+                 other_drawing: np.ndarray, pose: np.ndarray, other_pose: np.ndarray, inpainter: Inpainter,
+                 mu: float = 200.0, grad_tol: float = 0.01, max_iter: int = 5000) -> tuple[TexturedTemplate, float]:
+    """Depth weights + textures (§5.1); drawings (H, W, 4), the key poses (J, 3) -> (textured, energy at the other)."""
     weights = depth_weights(template)
     deformer = Deformer(template.rest, template.faces, template.handles, mu=mu)
     to_other = deformer.solve(template.handle_targets(other_pose), grad_tol=grad_tol, max_iter=max_iter)
-    textured = texture_template(template, weights, drawing, own.foreground, other_drawing, other.occlusion,
-                                other.foreground, to_other.x, inpainter)
+    textured = texture_template(template, weights, own, drawing, other, other_drawing, pose, to_other.x, inpainter)
     return textured, float(to_other.energy)
 
 

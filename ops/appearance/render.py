@@ -1,10 +1,11 @@
 """CPU renderer of a textured 2.5D template (§5.1).
 
 A triangle-id buffer is rasterized back to front by face depth at a
-supersampling factor s; every covered sample is mapped through its face's
-affine map (deformed -> rest) and the textures are sampled with one
-cv2.remap each (premultiplied alpha, so edges do not darken); the s x s
-samples are then averaged for anti-aliasing.
+supersampling factor s; every covered sample maps its pixel's centre through
+its face's affine map (deformed -> rest) and the textures are sampled with
+one cv2.remap each (premultiplied alpha, so edges do not darken); the s x s
+samples are then averaged, which anti-aliases the edges between faces and
+layers while the template at rest reproduces its texture exactly.
 
 Supersampling convention: original pixel i covers [i - 0.5, i + 0.5) (the
 origin is the top-left pixel's centre), so sample j of the s-times grid has
@@ -71,11 +72,17 @@ def affine_maps(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
 
 def back_map(ids: np.ndarray, X: np.ndarray, rest: np.ndarray, faces: np.ndarray,
              scale: int) -> tuple[np.ndarray, np.ndarray]:
-    """ids (H*s, W*s) -> float32 map_x, map_y: rest position of every covered sample (-1e4 where empty)."""
+    """ids (H*s, W*s) -> float32 map_x, map_y: for every covered sample, the rest position of its PIXEL's centre
+    under the sample's face (-1e4 where empty).
+
+    The supersamples decide which faces cover a pixel and by how much (coverage anti-aliasing); each face
+    is read at the pixel centre, so an undeformed template reproduces its texture exactly instead of
+    blurring it by the sample spread.
+    """
     A = affine_maps(np.asarray(X, np.float64)[faces], np.asarray(rest, np.float64)[faces]).astype(np.float32)
     h, w = ids.shape
-    px = ((np.arange(w, dtype=np.float32) + 0.5) / scale - 0.5)[None, :]
-    py = ((np.arange(h, dtype=np.float32) + 0.5) / scale - 0.5)[:, None]
+    px = (np.arange(w) // scale).astype(np.float32)[None, :]
+    py = (np.arange(h) // scale).astype(np.float32)[:, None]
     f = np.maximum(ids, 0)
     # gathers of contiguous per-coefficient arrays in float32: the whole grid costs a few ms
     coef = [np.ascontiguousarray(A[:, i, j]).take(f) for i in range(2) for j in range(3)]
@@ -127,19 +134,18 @@ def render(textured: TexturedTemplate, X: np.ndarray, pose: np.ndarray,
     ids = rasterize_ids(X, tpl.faces, depth_order(textured, pose), shape, s)
     map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
     f = np.maximum(ids, 0)
-    layered = (ids >= 0) & (tpl.face_layer.take(f) > 0)
-    source = textured.face_source.take(f)
+    hidden = (ids >= 0) & (textured.face_source.take(f) > 0)  # faces hidden at the keyframe: the back texture
     remap = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
     # each texture is sampled only where it is selected (the other map points off-texture, giving 0),
     # so the two premultiplied results add up to the composite
     off = np.float32(-1e4)
-    front = cv2.remap(premultiply(textured.texture), np.where(layered, off, map_x), map_y, **remap)
-    back = cv2.remap(premultiply(textured.back_texture), np.where(layered, map_x, off), map_y, **remap)
+    front = cv2.remap(premultiply(textured.texture), np.where(hidden, off, map_x), map_y, **remap)
+    back = cv2.remap(premultiply(textured.back_texture), np.where(hidden, map_x, off), map_y, **remap)
     rgba = unpremultiply(downsample(front + back, s))
     bh, bw = textured.back_inpainted.shape
     cx = np.clip(np.rint(map_x).astype(np.int64), 0, bw - 1)
     cy = np.clip(np.rint(map_y).astype(np.int64), 0, bh - 1)
     # source-1 faces may hold inpainted pixels too (samples invisible in the other keyframe)
-    filled = layered & (source > 0) & textured.back_inpainted[cy, cx]
+    filled = hidden & textured.back_inpainted[cy, cx]
     inpainted = (downsample(filled.astype(np.float32), s) >= 0.5) & (rgba[..., 3] > 0.5)
     return rgba.astype(np.float32), inpainted

@@ -1,8 +1,11 @@
 """Per-face texture of a 2.5D template (§5.1).
 
-The front sheet shows the keyframe drawing; a pocket face shows the other
-keyframe where, deformed into the other keyframe's pose, it is visible
-there, and is inpainted otherwise.
+In each occlusion region, the layer in front at the keyframe's own pose (by
+bounded biharmonic depth averaged over the layer) shows the drawing: its
+colour unmixed from the paper, with the drawing's coverage as alpha, so soft
+edges and outlines keep their drawn width. A hidden face shows the other
+keyframe where, deformed into the other keyframe's pose, it is visible there,
+and is inpainted otherwise.
 """
 from __future__ import annotations
 
@@ -13,7 +16,7 @@ from scipy import ndimage
 from ops.appearance.inpaint import Inpainter
 from ops.appearance.render import affine_maps, rasterize_ids
 from ops.shotio.image_io import to_rgba
-from ops.types import Template, TexturedTemplate
+from ops.types import RefinedMasks, Template, TexturedTemplate
 
 VISIBLE_FRACTION = 0.5  # a pocket face takes the other keyframe's texture if this much of it is visible there
 SAMPLES_PER_SIDE = 4  # k: a face's visibility is measured at the k*k centroids of its regular subdivision
@@ -39,10 +42,55 @@ def visible_fraction(tris: np.ndarray, visible: np.ndarray, k: int = SAMPLES_PER
     return vals.reshape(pts.shape[:2]).mean(axis=1)
 
 
-def _pocket_samples(template: Template, deformed_to_other: np.ndarray, shape: tuple[int, int]):
-    """Pocket raster at rest -> (ids (H, W) int32, qx, qy (H, W) float32 position in the other keyframe)."""
-    pockets = np.nonzero(template.face_layer > 0)[0]
-    ids = rasterize_ids(template.rest, template.faces, pockets, shape, 1)
+def unmix(drawing: np.ndarray, coverage: np.ndarray, paper: np.ndarray) -> np.ndarray:
+    """(H, W, 4) straight RGBA of the character alone: its colour unmixed from the paper, alpha = coverage.
+
+    drawing (H, W, C), coverage (H, W) in [0, 1], paper (H, W, 3): drawing = coverage * colour + (1 - coverage) * paper,
+    so the premultiplied colour coverage * colour = drawing - (1 - coverage) * paper is exact wherever it is in range.
+    """
+    rgb = to_rgba(drawing)[..., :3]
+    c = np.asarray(coverage, np.float32)[..., None]
+    pre = rgb - (1.0 - c) * np.asarray(paper, np.float32)
+    colour = np.where(c > 1.0 / 255.0, pre / np.maximum(c, 1e-6), rgb)
+    return np.concatenate([np.clip(colour, 0.0, 1.0), c], axis=2).astype(np.float32)
+
+
+def _region_of_front_faces(template: Template) -> np.ndarray:
+    """(m,) int64 occlusion region of each front-sheet face (-1 outside every region or not on the front sheet).
+
+    A pocket (layer r + 1) is a copy of region r's front-sheet faces at the same rest positions, so a front-sheet
+    face belongs to region r when a layer r + 1 face has its rest centroid.
+    """
+    F, layer = template.faces, template.face_layer
+    key = np.round(template.rest[F].mean(axis=1) * 1e4).astype(np.int64)
+    region_of = {tuple(k): int(lay) - 1 for k, lay in zip(key[layer > 0], layer[layer > 0])}
+    out = np.full(len(F), -1, np.int64)
+    for f in np.nonzero(layer == 0)[0]:
+        out[f] = region_of.get(tuple(key[f]), -1)
+    return out
+
+
+def drawing_faces(template: Template, weights: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(m,) bool: the faces that show the drawing at the keyframe's own pose (J, 3).
+
+    In each occlusion region, of its front-sheet faces and its pocket, the layer with the smaller bounded
+    biharmonic depth averaged over the layer is in front (§5.1): it shows the drawing, the other is hidden.
+    Outside the regions the front sheet shows it.
+    """
+    F, layer = template.faces, template.face_layer
+    depth = (weights @ np.asarray(pose, np.float64)[:, 2])[F].mean(axis=1)
+    front_region = _region_of_front_faces(template)
+    shows = layer == 0
+    for r in range(int(layer.max())):
+        sheet, pocket = (layer == 0) & (front_region == r), layer == r + 1
+        if sheet.any() and pocket.any() and depth[pocket].mean() < depth[sheet].mean():
+            shows[sheet], shows[pocket] = False, True
+    return shows
+
+
+def _back_samples(template: Template, back: np.ndarray, deformed_to_other: np.ndarray, shape: tuple[int, int]):
+    """Hidden faces `back` (k,) rasterized at rest -> (ids (H, W) int32, qx, qy (H, W) float32 in the other keyframe)."""
+    ids = rasterize_ids(template.rest, template.faces, back, shape, 1)
     A = affine_maps(template.rest[template.faces], np.asarray(deformed_to_other, np.float64)[template.faces])
     ys, xs = np.nonzero(ids >= 0)
     a = A[ids[ys, xs]]
@@ -61,30 +109,29 @@ def _extend_margin(back: np.ndarray, inpainted: np.ndarray, covered: np.ndarray,
     inpainted[ring] = inpainted[iy[ring], ix[ring]]
 
 
-def texture_template(template: Template, weights: np.ndarray, drawing: np.ndarray, foreground: np.ndarray,
-                     other_drawing: np.ndarray, other_occlusion: list[np.ndarray], other_foreground: np.ndarray,
+def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, drawing: np.ndarray,
+                     other: RefinedMasks, other_drawing: np.ndarray, pose: np.ndarray,
                      deformed_to_other: np.ndarray, inpainter: Inpainter) -> TexturedTemplate:
-    """Drawings (H, W, C), masks (H, W) bool, deformed_to_other (n, 2) pixels -> TexturedTemplate."""
-    shape = foreground.shape
-    texture = to_rgba(drawing)
-    texture[..., 3] = foreground.astype(np.float32)
-    m = template.faces.shape[0]
-    face_source = np.zeros(m, dtype=np.int64)
+    """Drawings (H, W, C) with their masks, the keyframe's pose (J, 3), the template deformed to the other
+    keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at the keyframe shows the drawing)."""
+    shape = own.foreground.shape
+    texture = unmix(drawing, own.coverage, own.paper)
+    face_source = np.where(drawing_faces(template, weights, pose), 0, 1).astype(np.int64)
     back = np.zeros(shape + (4,), dtype=np.float32)
     back_inpainted = np.zeros(shape, dtype=bool)
-    pockets = np.nonzero(template.face_layer > 0)[0]
-    if pockets.size == 0:
+    hidden = np.nonzero(face_source > 0)[0]
+    if hidden.size == 0:
         return TexturedTemplate(template, weights, face_source, texture, back, back_inpainted)
 
-    visible = np.asarray(other_foreground, dtype=bool).copy()
-    for occ in other_occlusion:
+    visible = np.asarray(other.foreground, dtype=bool).copy()
+    for occ in other.occlusion:
         visible &= ~np.asarray(occ, dtype=bool)
-    tris = np.asarray(deformed_to_other, np.float64)[template.faces[pockets]]
-    face_source[pockets] = np.where(visible_fraction(tris, visible) >= VISIBLE_FRACTION, 1, 2)
+    tris = np.asarray(deformed_to_other, np.float64)[template.faces[hidden]]
+    face_source[hidden] = np.where(visible_fraction(tris, visible) >= VISIBLE_FRACTION, 1, 2)
 
-    ids, qx, qy = _pocket_samples(template, deformed_to_other, shape)
+    ids, qx, qy = _back_samples(template, hidden, deformed_to_other, shape)
     covered = ids >= 0
-    other_rgb = np.ascontiguousarray(to_rgba(other_drawing)[..., :3])
+    other_rgb = np.ascontiguousarray(unmix(other_drawing, other.coverage, other.paper)[..., :3])
     remap = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     sampled = cv2.remap(other_rgb, qx, qy, borderValue=(0, 0, 0), **remap)
     seen = cv2.remap(visible.astype(np.float32), qx, qy, borderValue=0, **remap) >= 0.5

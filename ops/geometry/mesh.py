@@ -147,12 +147,15 @@ def triangulate_pslg(
     min_angle: float = 20.0,
     holes: np.ndarray | None = None,
     points: np.ndarray | None = None,
+    n_domain: int = 1,
 ) -> MeshResult:
-    """CDT of the region inside loops[0] with loops[1:] as constraints/holes and extra vertices `points` (p, 2).
+    """CDT of the domain bounded by loops[:n_domain], with the other loops as constraints and extra vertices `points`.
 
-    loops: closed polylines (n_i, 2) float64 pixels, first != last; loops[0] is the
-    outer boundary. A loop containing a point of `holes` (k, 2) becomes a hole;
-    the others stay as internal constraint edges. Extra points outside the
+    loops: closed polylines (n_i, 2) float64 pixels, first != last. The first
+    n_domain loops outline the domain (several components, and the outlines of
+    its holes: a point is inside when it is inside an odd number of them); a
+    loop containing a point of `holes` (k, 2) is a hole; the other loops stay
+    as internal constraint edges. Extra points `points` (p, 2) outside the
     domain are dropped (point_vertex = -1) with a warning.
     """
     warnings: list[str] = []
@@ -174,7 +177,7 @@ def triangulate_pslg(
     out = tr.triangulate(data, f"pq{min_angle:g}a{max_area:.12g}Q")
     V = np.asarray(out["vertices"], dtype=np.float64)
     F = np.asarray(out.get("triangles", np.zeros((0, 3))), dtype=np.int64)
-    V, F, new_of_old = _clean(V, F, loops[0], warnings)
+    V, F, new_of_old = _clean(V, F, loops[:n_domain], warnings)
     vmap = new_of_old[: len(U)]
     loop_vertex = [vmap[ix] for ix in idx]
     point_vertex = vmap[inv[offs[-1]:]]
@@ -183,14 +186,22 @@ def triangulate_pslg(
     return MeshResult(V, F, loop_vertex, point_vertex, warnings)
 
 
-def _clean(V: np.ndarray, F: np.ndarray, outer: np.ndarray, warnings: list[str]):
-    """Orient faces positively, drop faces outside `outer` and unused vertices: (V, F, new index of each old vertex)."""
+def points_in_domain(Q: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:
+    """(k,) bool: points Q (k, 2) inside an odd number of the closed polylines (outlines and their holes)."""
+    inside = np.zeros(len(Q), bool)
+    for L in loops:
+        inside ^= points_in_polygon(Q, L)
+    return inside
+
+
+def _clean(V: np.ndarray, F: np.ndarray, domain: list[np.ndarray], warnings: list[str]):
+    """Orient faces positively, drop faces outside the domain and unused vertices: (V, F, new index of each old vertex)."""
     a = signed_areas(V, F)
     neg = a < 0
     F = F.copy()
     F[neg] = F[neg][:, [0, 2, 1]]
     # Constraint loops poking outside the outer boundary would shield exterior triangles from Triangle's eating.
-    inside = points_in_polygon(V[F].mean(axis=1), outer) & (np.abs(a) > 0)
+    inside = points_in_domain(V[F].mean(axis=1), domain) & (np.abs(a) > 0)
     if not inside.all():
         warnings.append(f"dropped {int((~inside).sum())} face(s) outside the outer boundary or degenerate")
     F = F[inside]

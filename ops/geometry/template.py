@@ -1,12 +1,13 @@
 """Initial 2.5D template: front-sheet triangulation, occlusion regions and skeleton handles (§4.2).
 
 The front sheet (layer 0) is a constrained Delaunay triangulation of the
-foreground whose occlusion-region boundaries are internal constraint loops, so
-every region is a union of faces. Each region r later gets a pocket (layer
+character's domain (every component, paper enclosed by the body left open as
+holes; ops.segmentation.domain) whose occlusion-region boundaries are internal
+constraint loops, so every region is a union of faces. Each region r later gets a pocket (layer
 r + 1, a copy of its faces) whose sewing is decided by the cut assignment
 (ops.topology). Handles are vertices inserted at every joint and bone
-midpoint; inside region r a handle sits on the front sheet if its bone is one
-of the region's front bones, otherwise on the pocket.
+midpoint (ops.geometry.handles); inside region r a handle sits on the front
+sheet if its bone is one of the region's front bones, otherwise on the pocket.
 """
 from __future__ import annotations
 
@@ -14,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ops.geometry.mesh import points_in_polygon, polygon_area, project_to_polyline, signed_areas, triangulate_pslg
+from ops.geometry.handles import handle_bones, place_handles
+from ops.geometry.mesh import points_in_polygon, polygon_area, signed_areas, triangulate_pslg
 from ops.types import RefinedMasks, Skeleton
 
 FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this
@@ -29,7 +31,9 @@ class TemplateBase:
     face_region: np.ndarray  # (m,) int64 occlusion region containing the face, -1 if none
     handle_vertex: np.ndarray  # (h,) int64 front-sheet vertex of each handle
     handle_layer: np.ndarray  # (h,) int64 0 = front sheet, r + 1 = pocket of region r
-    handle_weights: np.ndarray  # (h, J) float64 one-hot (joint) or 0.5/0.5 (bone midpoint)
+    handle_weights: np.ndarray  # (h, J) float64 one-hot (joint), 0.5/0.5 (bone midpoint) or (1 - u, u) on a bone
+    handle_offsets: np.ndarray  # (h, 2) float64 offset from the skeleton point along/across its bone (handles.py)
+    handle_frames: np.ndarray  # (h, 2) int64 joints of the bone the offset turns with
     boundaries: list[np.ndarray]  # per region (n_r, 2) float64 boundary polyline, pixels
     boundary_vertex: list[np.ndarray]  # per region (n_r,) int64 mesh vertex of each polyline vertex
     junctions: list[np.ndarray]  # per region (k_r,) int64 sorted indices into boundaries[r]
@@ -42,49 +46,9 @@ class TemplateBase:
         return len(self.boundaries)
 
 
-def handle_points(pose: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """Joint and bone-midpoint handles: (points (J + B, 2) pixels, weights (J + B, J), names)."""
-    J = len(skeleton.joints)
-    bones = skeleton.bones
-    xy = np.asarray(pose, dtype=np.float64)[:, :2]
-    W = np.zeros((J + len(bones), J))
-    W[np.arange(J), np.arange(J)] = 1.0
-    W[J + np.arange(len(bones)), bones[:, 0]] = 0.5
-    W[J + np.arange(len(bones)), bones[:, 1]] += 0.5
-    names = list(skeleton.joints) + [f"{skeleton.joints[a]}-{skeleton.joints[b]} midpoint" for a, b in bones]
-    return W @ xy, W, names
-
-
-def snap_inside(P: np.ndarray, outer: np.ndarray, names: list[str], inset: float = 1.0):
-    """Move points P (k, 2) that lie outside the polygon `outer` to `inset` px inside its nearest edge: (P', warnings)."""
-    P = P.copy()
-    warnings: list[str] = []
-    out = np.nonzero(~points_in_polygon(P, outer))[0]
-    if len(out) == 0:
-        return P, warnings
-    param, dist = project_to_polyline(P[out], outer)
-    i = np.floor(param).astype(np.int64) % len(outer)
-    a, b = outer[i], outer[(i + 1) % len(outer)]
-    foot = a + (param - i)[:, None] * (b - a)
-    e = (b - a) / np.maximum(np.linalg.norm(b - a, axis=1, keepdims=True), 1e-12)
-    # Interior lies left of the edges of a positively oriented polygon (raw coordinates).
-    normal = np.stack([-e[:, 1], e[:, 0]], axis=1) * np.sign(polygon_area(outer))
-    for k, j in enumerate(out):
-        for step in (inset, 0.5 * inset, 0.25 * inset, 0.05 * inset):
-            q = foot[k] + step * normal[k]
-            if points_in_polygon(q[None], outer)[0]:
-                break
-        P[j] = q
-        warnings.append(f"handle '{names[j]}' was {dist[k]:.1f} px outside the foreground; snapped inside")
-    return P, warnings
-
-
 def _handle_layers(P: np.ndarray, W: np.ndarray, skeleton: Skeleton, refined: RefinedMasks, n_regions: int):
     """(h,) int64 layer of each handle: r + 1 when inside region r and not of a front bone, else 0."""
-    bones = skeleton.bones
-    J = len(skeleton.joints)
-    # bones_of[h] = bone indices a handle belongs to: a joint belongs to every bone it ends.
-    bones_of = [np.nonzero((bones == j).any(axis=1))[0] for j in range(J)] + [np.array([b]) for b in range(len(bones))]
+    bones_of = handle_bones(W, skeleton)
     layer = np.zeros(len(P), np.int64)
     for r in range(n_regions):
         inside = points_in_polygon(P, refined.boundaries[r])
@@ -121,16 +85,19 @@ def build_template(
     """Triangulate the foreground with occlusion constraints and insert handles; pose (J, 3) pixels/depth."""
     if mode not in ("optimized", "single-layer"):
         raise ValueError(f"mode must be 'optimized' or 'single-layer', got {mode!r}")
-    outer = np.asarray(refined.foreground_boundary, dtype=np.float64)
+    domain = [np.asarray(L, dtype=np.float64) for L in refined.domain]
     boundaries = [np.asarray(b, dtype=np.float64) for b in refined.boundaries] if mode == "optimized" else []
-    fg_area = abs(polygon_area(outer))
-    max_area = fg_area / FACES_PER_FOREGROUND if max_area is None else float(max_area)
-    P, W, names = handle_points(pose, skeleton)
-    P, warnings = snap_inside(P, outer, names)
-    res = triangulate_pslg([outer] + boundaries, max_area, min_angle, points=P)
+    area = sum(polygon_area(L) for L in domain)  # hole outlines have negative area
+    max_area = area / FACES_PER_FOREGROUND if max_area is None else float(max_area)
+    handles = place_handles(pose, skeleton, domain, refined.foreground.shape)
+    warnings = list(handles.warnings)
+    res = triangulate_pslg(domain + boundaries, max_area, min_angle, holes=refined.domain_holes, points=handles.points,
+                           n_domain=len(domain))
     warnings += res.warnings
-    if (res.point_vertex < 0).any():
-        raise ValueError("a handle could not be inserted as a mesh vertex")
+    if (res.point_vertex < 0).any():  # place_handles puts every handle 2 px inside the domain: a bug if it happens
+        lost = [handles.names[i] for i in np.nonzero(res.point_vertex < 0)[0]]
+        raise ValueError(f"handles {lost} could not be inserted as mesh vertices")
+    W = handles.weights
     region = _face_regions(res.V, res.F, boundaries, warnings)
     layer = _handle_layers(res.V[res.point_vertex], W, skeleton, refined, len(boundaries))
     junctions = [np.unique(np.asarray(refined.junctions[r], dtype=np.int64)) for r in range(len(boundaries))]
@@ -140,13 +107,13 @@ def build_template(
         if len(jn) % 2 and len(jn) == len(boundaries[r]):
             warnings.append(f"occlusion region {r}: every boundary vertex is a T-junction, no room for a cusp; dropped one")
             junctions[r] = jn[:-1]
-    bvert = res.loop_vertex[1:]
+    bvert = res.loop_vertex[len(domain):]
     for r, (bv, jn) in enumerate(zip(bvert, junctions)):
         if (bv[jn] < 0).any():
             raise ValueError(f"occlusion region {r}: a T-junction vertex fell outside the foreground mesh")
     assert (signed_areas(res.V, res.F) > 0).all()
     return TemplateBase(
         V=res.V, F=res.F, face_region=region, handle_vertex=res.point_vertex, handle_layer=layer,
-        handle_weights=W, boundaries=boundaries, boundary_vertex=bvert, junctions=junctions,
+        handle_weights=W, handle_offsets=handles.offsets, handle_frames=handles.frames, boundaries=boundaries, boundary_vertex=bvert, junctions=junctions,
         mode=mode, warnings=warnings,
     )

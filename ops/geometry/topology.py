@@ -24,7 +24,7 @@ import optuna
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import project_to_polyline
 from ops.geometry.template import TemplateBase, build_template
-from ops.types import RefinedMasks, Skeleton, Template
+from ops.types import RefinedMasks, Skeleton, Template, handle_targets
 
 MAX_ODD_TRIALS = 30
 _FAILED = 1e12  # stands in for +inf energy inside optuna
@@ -192,7 +192,7 @@ def optimize_topology(
 ) -> Template:
     """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3)."""
     base = build_template(refined, pose_self, skeleton, mode, max_area)
-    targets = base.handle_weights @ np.asarray(pose_other, dtype=np.float64)[:, :2]
+    targets = handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, pose_other)
     search = _Search(base, targets)
     options, sizes, ks = [], [], []
     for r in range(base.n_regions):
@@ -210,7 +210,8 @@ def optimize_topology(
         warnings.append("no topology deformed to the other keyframe's pose without failure")
     return Template(
         rest=inc.rest, faces=inc.faces, face_layer=inc.face_layer, handles=inc.handles,
-        handle_weights=base.handle_weights, cut_assignment=[a.labels.copy() for a in assign],
+        handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
+        cut_assignment=[a.labels.copy() for a in assign],
         energy=float(energy), trials=len(search.cache), mode=mode, warnings=warnings,
     )
 

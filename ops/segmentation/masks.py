@@ -90,4 +90,7 @@ def build_masks(
         regions, fronts = [s[1] for s in scored], [s[2] for s in scored]
     n_manual = (manual_foreground is not None) + (not predicted)
     kind = {0: "predicted", 1: "mixed", 2: "manual"}[n_manual]
-    return Masks(foreground=fg, occlusion=regions, front_bones=fronts, source=kind, warnings=warnings)
+    coverage = fg.astype(np.float32)
+    paper = np.ones(fg.shape + (3,), np.float32)
+    return Masks(foreground=fg, occlusion=regions, front_bones=fronts, source=kind, coverage=coverage, paper=paper,
+                 warnings=warnings)

@@ -23,6 +23,7 @@ from scipy.spatial import cKDTree
 
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
+from ops.segmentation.domain import mesh_domain
 from ops.segmentation.snap import snap_into
 from ops.types import Masks, RefinedMasks
 
@@ -315,12 +316,16 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray) -> RefinedMasks:
         fronts.append(front)
         bounds.append(B)
         juncs.append(jidx)
+    domain, holes = mesh_domain(fg, masks.coverage)
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,
         front_bones=fronts,
         boundaries=bounds,
         junctions=juncs,
-        foreground_boundary=mask_boundary(fg),
+        domain=domain,
+        domain_holes=holes,
+        coverage=masks.coverage,
+        paper=masks.paper,
         warnings=warnings,
     )

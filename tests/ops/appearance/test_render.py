@@ -69,6 +69,7 @@ def make_template(size: int = 64, lo: float = 7.5, pocket=(24.0, 24.0, 40.0, 40.
     jv = len(outer) + len(inner) + np.arange(4)
     hw = np.array([[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.5, 0.5, 0]], dtype=np.float64)
     return Template(rest=V, faces=F, face_layer=layer, handles=jv, handle_weights=hw,
+                    handle_offsets=np.zeros((len(jv), 2)), handle_frames=np.full((len(jv), 2), -1),
                     cut_assignment=[np.zeros(4, np.int8)], energy=0.0, trials=1, mode="optimized")
 
 
@@ -172,8 +173,9 @@ def test_render_rest_reproduces_drawing():
     fg = square_foreground(size, 7.5)
     from scipy.ndimage import binary_dilation, binary_erosion
     inner = binary_erosion(fg, iterations=2)
-    assert np.abs(rgba[inner][:, :3] - tex.texture[inner][:, :3]).mean() < 0.02
-    assert np.allclose(rgba[inner, 3], 1.0, atol=1e-4)
+    # read at pixel centres: the template at rest reproduces its texture exactly, not blurred by the supersamples
+    assert np.abs(rgba[inner][:, :3] - tex.texture[inner][:, :3]).max() < 1e-5
+    assert np.allclose(rgba[inner, 3], 1.0, atol=1e-6)
     assert np.all(rgba[~binary_dilation(fg, np.ones((3, 3), bool)), 3] == 0.0)
     assert np.abs(rgba[..., 3] - fg).mean() < 0.05
     assert not inpainted.any()

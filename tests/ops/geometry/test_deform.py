@@ -120,6 +120,7 @@ def test_deform_sequence_orders():
     J = len(MID)
     tpl = Template(
         rest=V, faces=F, face_layer=np.zeros(len(F), np.int64), handles=h, handle_weights=np.eye(J),
+        handle_offsets=np.zeros((J, 2)), handle_frames=np.full((J, 2), -1),
         cut_assignment=[], energy=0.0, trials=1, mode="single-layer",
     )
     poses = np.stack([np.concatenate([bend(MID, a), np.zeros((J, 1))], 1) for a in (0, 30, 60)])

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from ops.geometry.deform import count_flipped
-from ops.geometry.mesh import points_in_polygon, project_to_polyline, signed_areas
-from ops.geometry.template import build_template, handle_points, snap_inside
+from ops.geometry.handles import handle_points, place_handles
+from ops.geometry.mesh import points_in_polygon, signed_areas
+from ops.geometry.template import build_template
 from ops.geometry.topology import optimize_topology
-from ops.types import RefinedMasks, Skeleton
+from ops.types import RefinedMasks, Skeleton, handle_targets
 
 
 def capsule(a, b, rad, step):
@@ -38,7 +39,8 @@ def capsule_scene(scale=1.0, junctions=(3, 12)):
     cv2.fillPoly(om, [np.round(occ).astype(np.int32)], 1)
     refined = RefinedMasks(
         foreground=fg.astype(bool), occlusion=[om.astype(bool)], front_bones=[np.array([3])],
-        boundaries=[occ], junctions=[np.array(junctions, np.int64)], foreground_boundary=outer,
+        boundaries=[occ], junctions=[np.array(junctions, np.int64)], domain=[outer], domain_holes=np.zeros((0, 2)),
+        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32),
     )
     return refined, sk, pose0, pose1
 
@@ -107,13 +109,63 @@ def test_optimized_template_rest_state():
     assert tpl.trials == 2 and np.isfinite(tpl.energy)
 
 
-def test_handle_outside_is_snapped_with_warning():
-    square = np.array([[0, 0], [10, 0], [10, 10], [0, 10]], float)
-    P, warns = snap_inside(np.array([[5.0, 5.0], [12.0, 4.0]]), square, ["a", "b"])
-    assert np.allclose(P[0], [5, 5]) and np.allclose(P[1], [9.0, 4.0])
-    assert len(warns) == 1 and "'b'" in warns[0]
-    _, d = project_to_polyline(P[1:], square)
-    assert np.isclose(d[0], 1.0)
+def test_handle_outside_is_snapped_and_its_target_keeps_the_offset():
+    square = np.array([[0, 0], [20, 0], [20, 20], [0, 20]], float)
+    sk = Skeleton(joints=("a", "b"), parents=np.array([-1, 0]))
+    pose = np.array([[10.0, 10.0, 0.0], [26.0, 8.0, 0.0]])
+    h = place_handles(pose, sk, [square], (32, 32))
+    assert np.allclose(h.points[0], [10, 10])  # inside: untouched
+    assert np.allclose(h.points[1], [18.0, 8.0])  # 8 px outside: moved to 2 px inside the nearest edge
+    assert len(h.warnings) == 1 and "'b'" in h.warnings[0] and len(h.points) == 3
+    assert points_in_polygon(h.points, square).all()
+    # at the keyframe's own pose every target is where its handle is drawn: the rest mesh is a solution
+    assert np.allclose(handle_targets(h.weights, h.offsets, h.frames, pose), h.points)
+    # turned by 90 degrees about joint a, the snapped handle's offset turns with the bone
+    turned = pose.copy()
+    turned[1, :2] = [10.0 + 2.0, 10.0 + 16.0]
+    t = handle_targets(h.weights, h.offsets, h.frames, turned)
+    assert np.isclose(np.linalg.norm(t[1] - turned[0, :2]), np.linalg.norm(h.points[1] - pose[0, :2]))
+
+
+def test_every_component_a_bone_crosses_gets_a_handle():
+    """A hand drawn apart from its arm: the bone crosses it, no joint or midpoint lands in it -> a handle on it."""
+    body = np.array([[2, 2], [30, 2], [30, 30], [2, 30]], float)
+    shin = np.array([[48, 8], [62, 8], [62, 24], [48, 24]], float)
+    hand = np.array([[70, 10], [78, 10], [78, 22], [70, 22]], float)
+    foot = np.array([[84, 8], [98, 8], [98, 24], [84, 24]], float)
+    sk = Skeleton(joints=("a", "b", "c"), parents=np.array([-1, 0, 1]))
+    pose = np.array([[10.0, 16.0, 0.0], [20.0, 16.0, 0.0], [91.0, 16.0, 0.0]])  # b-c's midpoint 55.5 is in the shin
+    h = place_handles(pose, sk, [body, shin, hand, foot], (40, 100))
+    assert len(h.points) == 6 and points_in_polygon(h.points[5:], hand).all()
+    assert np.allclose(h.weights[5] @ pose[:, :2], h.points[5])  # on the bone, where it is: no offset
+    assert np.allclose(handle_targets(h.weights, h.offsets, h.frames, pose), h.points)
+    base = build_template(_refined_from([body, shin, hand, foot], (40, 100)), pose, sk)
+    assert (base.handle_vertex >= 0).all() and len(base.handle_vertex) == 6
+
+
+def test_holes_are_not_meshed_and_components_are():
+    """Two components, one with a hole: no face inside the hole or between the components."""
+    outer = np.array([[2, 2], [40, 2], [40, 40], [2, 40]], float)
+    hole = np.array([[15, 15], [15, 27], [27, 27], [27, 15]], float)  # clockwise: a hole
+    other = np.array([[50, 10], [60, 10], [60, 30], [50, 30]], float)
+    sk = Skeleton(joints=("a", "b", "c"), parents=np.array([-1, 0, 1]))
+    pose = np.array([[8.0, 8.0, 0.0], [35.0, 35.0, 0.0], [55.0, 20.0, 0.0]])
+    refined = _refined_from([outer, hole, other], (48, 64), holes=np.array([[21.0, 21.0]]))
+    base = build_template(refined, pose, sk)
+    c = base.V[base.F].mean(axis=1)
+    assert not points_in_polygon(c, hole).any()
+    assert points_in_polygon(c, other).any() and points_in_polygon(c, outer).any()
+    between = (c[:, 0] > 41) & (c[:, 0] < 49)
+    assert not between.any()
+    area = signed_areas(base.V, base.F).sum()
+    assert np.isclose(area, 38 * 38 - 12 * 12 + 10 * 20)
+
+
+def _refined_from(domain, shape, holes=None):
+    fg = np.zeros(shape, bool)
+    return RefinedMasks(foreground=fg, occlusion=[], front_bones=[], boundaries=[], junctions=[], domain=domain,
+                        domain_holes=np.zeros((0, 2)) if holes is None else holes,
+                        coverage=fg.astype(np.float32), paper=np.ones(shape + (3,), np.float32))
 
 
 def test_bad_mode():

@@ -147,7 +147,7 @@ def test_refine_masks_on_crossing_improves_the_prediction():
     B, idx = refined.boundaries[best], refined.junctions[best]
     assert len(idx) == 4 and np.all(np.diff(idx) > 0)
     assert np.linalg.norm(B[idx][:, None] - corners[None], axis=2).min(axis=1).max() <= 0.5
-    assert polygon_area(refined.foreground_boundary) > 0
+    assert sum(polygon_area(L) for L in refined.domain) > 0
     assert len(refined.occlusion) == len(refined.front_bones) == len(refined.boundaries) == len(refined.junctions)
     assert refined.warnings[: len(masks.warnings)] == masks.warnings
 

@@ -1,0 +1,130 @@
+"""Skeleton handles of a template (§4.2): where the pose term pins the mesh, always inside the meshed domain.
+
+Handles sit at every joint and bone midpoint. A handle outside the domain (a
+joint clicked just off the drawing, or a midpoint in paper between two parts)
+is moved to the nearest point safely inside it, with a warning, and keeps its
+offset from the skeleton in the frame of its bone: its target at any pose is
+the skeleton point plus that offset turned with the bone, so at the keyframe's
+own pose every target is exactly where the handle is drawn (the rest mesh
+needs no deformation and the keyframe is reproduced). Every component of the
+domain that a bone crosses gets a handle on that bone, so a hand drawn apart
+from its arm follows the arm instead of floating at rest.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from ops.segmentation.snap import snap_into
+from ops.types import MIN_BONE_PX, Skeleton, bone_frames
+
+SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (its outlines are DP-simplified by 1 px)
+BONE_SAMPLES = 33  # points tried along a bone when a component needs a handle
+
+
+@dataclass
+class Handles:
+    """Handle points and how they follow the skeleton: target(pose) = W @ joints + offset turned with the bone."""
+
+    points: np.ndarray  # (h, 2) float64 rest positions, pixels
+    weights: np.ndarray  # (h, J) float64 skeleton point of each handle = weights @ joints_xy
+    offsets: np.ndarray  # (h, 2) float64 (along, across) the handle's bone, pixels, from its skeleton point
+    frames: np.ndarray  # (h, 2) int64 joints (parent, child) of the bone that carries the offset, -1 if none
+    names: list[str]
+    warnings: list[str] = field(default_factory=list)
+
+
+def handle_points(pose: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """Joint and bone-midpoint handles: (points (J + B, 2) pixels, weights (J + B, J), names)."""
+    J = len(skeleton.joints)
+    bones = skeleton.bones
+    xy = np.asarray(pose, dtype=np.float64)[:, :2]
+    W = np.zeros((J + len(bones), J))
+    W[np.arange(J), np.arange(J)] = 1.0
+    W[J + np.arange(len(bones)), bones[:, 0]] = 0.5
+    W[J + np.arange(len(bones)), bones[:, 1]] += 0.5
+    names = list(skeleton.joints) + [f"{skeleton.joints[a]}-{skeleton.joints[b]} midpoint" for a, b in bones]
+    return W @ xy, W, names
+
+
+def handle_bones(W: np.ndarray, skeleton: Skeleton) -> list[np.ndarray]:
+    """Per handle (rows of W (h, J)), the (b,) int64 bones it lies on: a joint lies on every bone it ends."""
+    bones = skeleton.bones
+    on = (W[:, bones[:, 0]] + W[:, bones[:, 1]] > 1.0 - 1e-9) & ((W[:, bones[:, 0]] > 0) | (W[:, bones[:, 1]] > 0))
+    return [np.nonzero(row)[0] for row in on]
+
+
+def _frame_of(W: np.ndarray, skeleton: Skeleton, xy: np.ndarray) -> np.ndarray:
+    """(h, 2) int64 joints of the bone each handle's offset turns with: its own bone, else a longer one it ends."""
+    bones = skeleton.bones
+    out = np.full((len(W), 2), -1, np.int64)
+    length = np.linalg.norm(xy[bones[:, 1]] - xy[bones[:, 0]], axis=1)
+    for h, on in enumerate(handle_bones(W, skeleton)):
+        on = [b for b in on if length[b] > MIN_BONE_PX]
+        if on:
+            out[h] = bones[max(on, key=lambda b: length[b])]
+    return out
+
+
+def domain_mask(domain: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool pixel centres inside an odd number of the domain's closed polylines (pixels)."""
+    mask = np.zeros(shape, np.uint8)
+    for loop in domain:
+        layer = np.zeros(shape, np.uint8)
+        cv2.fillPoly(layer, [np.round(np.asarray(loop) * 16).astype(np.int32).reshape(-1, 1, 2)], 1, cv2.LINE_8, 4)
+        mask ^= layer
+    return mask.astype(bool)
+
+
+def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray], shape: tuple[int, int]) -> Handles:
+    """Joint and midpoint handles of a (J, 3) pose moved safely inside the domain (closed polylines, pixels, in an
+    (H, W) image), plus one handle on a bone for every component that it crosses but no handle reaches."""
+    P, W, names = handle_points(pose, skeleton)
+    xy = np.asarray(pose, np.float64)[:, :2]
+    inside = domain_mask(domain, shape)
+    safe = ndimage.binary_erosion(inside, iterations=SAFE_INSET_PX)
+    safe = safe if safe.any() else inside
+    labels, n = ndimage.label(safe, structure=np.ones((3, 3), bool))
+    snapped, moved = snap_into(safe, P)
+    warnings: list[str] = []
+    for i in np.nonzero(moved)[0]:
+        c, r = int(np.clip(round(P[i, 0]), 0, shape[1] - 1)), int(np.clip(round(P[i, 1]), 0, shape[0] - 1))
+        if not inside[r, c] or not (0 <= P[i, 0] <= shape[1] - 1 and 0 <= P[i, 1] <= shape[0] - 1):
+            d = float(np.linalg.norm(snapped[i] - P[i]))
+            warnings.append(f"handle '{names[i]}' was {d:.1f} px outside the drawing; moved to its nearest point")
+    P = np.where(moved[:, None], snapped, P)
+    covered = set(labels[P[:, 1].round().astype(int), P[:, 0].round().astype(int)].tolist())
+    extra_P, extra_W, extra_names = [], [], []
+    dist = ndimage.distance_transform_edt(safe)
+    u = np.linspace(0.0, 1.0, BONE_SAMPLES)
+    for comp in sorted(set(range(1, n + 1)) - covered):
+        best = None  # (depth inside the component, bone, u, pixel)
+        for b, (p, c) in enumerate(skeleton.bones):
+            pts = xy[p] + u[:, None] * (xy[c] - xy[p])
+            cc = np.clip(np.round(pts[:, 0]).astype(int), 0, shape[1] - 1)
+            rr = np.clip(np.round(pts[:, 1]).astype(int), 0, shape[0] - 1)
+            depth = np.where(labels[rr, cc] == comp, dist[rr, cc], -1.0)
+            k = int(np.argmax(depth))
+            if depth[k] > 0 and (best is None or depth[k] > best[0]):
+                best = (depth[k], b, u[k])
+        if best is None:
+            warnings.append(f"a part of the drawing ({int((labels == comp).sum())} px) that no bone crosses has no "
+                            "handle: it stays where it is drawn; fix: extend a bone over it or paint it out of the mask")
+            continue
+        _, b, t = best
+        p, c = skeleton.bones[b]
+        w = np.zeros(len(skeleton.joints))
+        w[p], w[c] = 1.0 - t, t
+        extra_P.append(w @ xy)
+        extra_W.append(w)
+        extra_names.append(f"{skeleton.joints[p]}-{skeleton.joints[c]} at {t:.2f} (a separate part of the drawing)")
+    if extra_P:
+        P, W, names = np.vstack([P, extra_P]), np.vstack([W, extra_W]), names + extra_names
+    frames = _frame_of(W, skeleton, xy)
+    along, across = bone_frames(xy, frames)
+    off = P - W @ xy
+    offsets = np.stack([(off * along).sum(1), (off * across).sum(1)], axis=1)
+    return Handles(P, W, offsets, frames, names, warnings)

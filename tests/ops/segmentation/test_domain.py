@@ -1,0 +1,37 @@
+"""The meshed domain: every pixel with coverage inside, holes left open, one outline per component."""
+import cv2
+import numpy as np
+
+from ops.geometry.mesh import points_in_domain, polygon_area
+from ops.segmentation.domain import mesh_domain
+
+
+def _pixels(mask):
+    ys, xs = np.nonzero(mask)
+    return np.stack([xs, ys], 1).astype(float)
+
+
+def test_ring_has_an_outline_a_hole_outline_and_a_point_in_the_hole():
+    img = np.zeros((80, 80), np.uint8)
+    cv2.circle(img, (40, 40), 30, 1, -1)
+    cv2.circle(img, (40, 40), 14, 0, -1)
+    fg = img.astype(bool)
+    loops, holes = mesh_domain(fg, fg.astype(np.float32))
+    areas = sorted(polygon_area(L) for L in loops)
+    assert len(loops) == 2 and areas[0] < 0 < areas[1]
+    assert len(holes) == 1 and np.linalg.norm(holes[0] - 40) < 3
+    assert points_in_domain(_pixels(fg), loops).all()
+    inner_paper = _pixels(np.hypot(*np.mgrid[0:80, 0:80] - 40) < 10)
+    assert not points_in_domain(inner_paper, loops).any()  # the hole stays open (the margin is 2 px)
+
+
+def test_soft_fringe_is_inside_and_components_are_separate():
+    fg = np.zeros((60, 100), bool)
+    fg[10:30, 10:30] = True
+    fg[10:30, 60:90] = True
+    cov = fg.astype(np.float32)
+    cov[9, 10:30] = 0.3  # an anti-aliased fringe row outside the hard mask
+    loops, holes = mesh_domain(fg, cov)
+    assert len(loops) == 2 and len(holes) == 0 and all(polygon_area(L) > 0 for L in loops)
+    assert points_in_domain(_pixels(cov > 0), loops).all()
+    assert not points_in_domain(np.array([[45.0, 20.0]]), loops).any()  # the paper between them is not meshed
