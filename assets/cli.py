@@ -1,4 +1,4 @@
-"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, eval, ui. It parses, calls and prints.
+"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui. It parses, calls and prints.
 
 The work is done by assets/runs.py, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
@@ -32,6 +32,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
         p.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
         p.add_argument("--verbose", action="store_true", help="show Dagster's event log live")
+        p.add_argument("--debug", action="store_true", help="print the full trace when a stage fails")
 
     p = sub.add_parser("run", help="in-between one shot")
     p.add_argument("shot_dir")
@@ -47,6 +48,11 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the statuses as JSON")
     s.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
     s.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
+    m = sub.add_parser("masks", help="write a shot's masks in the form masks.foreground / masks.occlusion accept")
+    m.add_argument("shot_dir")
+    m.add_argument("--out", required=True)
+    m.add_argument("--predicted", action="store_true",
+                   help="the occlusion masks as predicted, before the T-junctions refine them")
     e = sub.add_parser("eval", help="evaluate shots that carry ground truth")
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
@@ -94,6 +100,14 @@ def _status(args) -> int:
     return 0
 
 
+def _masks(args) -> int:
+    from .runs import export_masks
+
+    for path in export_masks(args.shot_dir, args.out, predicted=args.predicted):
+        print(path)
+    return 0
+
+
 def _eval(args) -> int:
     from .evaluation_cli import evaluate_root
 
@@ -109,7 +123,7 @@ def _ui(args) -> int:
     return 0
 
 
-COMMANDS = {"run": _run, "batch": _batch, "status": _status, "eval": _eval, "ui": _ui}
+COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -122,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except StageFailed as e:
+        if getattr(args, "debug", False) and e.trace:
+            print(e.trace, file=sys.stderr)
         where = f" (full log: {e.log})" if e.log else ""
         print(f"error: {e}{where}", file=sys.stderr)
         return EXIT_FAILED

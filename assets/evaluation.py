@@ -10,6 +10,7 @@ from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
 from ops.blending.select import select_frames
 from ops.evaluation.baselines import blend_sequences, compare, cross_dissolve, rife_direct, summarize
+from ops.evaluation.plate import over, paper_plate
 from ops.geometry.topology import optimize_topology
 from ops.shotio.image_io import read_image, to_rgba
 from ops.types import BlendPaths, ImageMatrix, OutputFrames
@@ -60,7 +61,7 @@ def _ground_truth(env: StageEnv) -> np.ndarray | None:
 
 
 def _metrics(env: StageEnv) -> StageResult:
-    """PSNR, SSIM and Chamfer of every method against the ground truth, per frame."""
+    """PSNR, SSIM and Chamfer of every method against the ground truth, per frame, all over the shot's paper."""
     gt = _ground_truth(env)
     if gt is None:
         empty = pd.DataFrame(columns=["method", "frame", "t", "interior", "psnr", "ssim", "chamfer"])
@@ -75,7 +76,11 @@ def _metrics(env: StageEnv) -> StageResult:
         "rife_direct": env.read("evaluation/rife_direct").frames,
         "cross_dissolve": cross_dissolve(env.drawing(0), env.drawing(1), shot.times),
     }
-    table = compare(gt, methods, shot.times)
+    masks = [env.read(f"key{k}/masks") for k in (0, 1)]
+    plate = paper_plate(env.drawing(0), env.drawing(1), masks[0].coverage, masks[1].coverage, masks[0].paper,
+                        masks[1].paper)
+    methods = {name: over(frames, plate) for name, frames in methods.items()}
+    table = compare(over(gt, plate), methods, shot.times)
     means = summarize(table).set_index("method")
     mid = len(shot.times) // 2
     strip = preview.side_by_side([gt[mid]] + [methods[m][mid] for m in methods], ["ground truth", *methods])

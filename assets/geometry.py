@@ -28,7 +28,7 @@ def _masks(k: int):
         manual_fg = _mask_image(fg, f"masks.foreground[{k}]") if fg else None
         manual_occ = [_mask_image(p, f"masks.occlusion[{k}][{i}]") for i, p in enumerate(shot.occlusion_masks[k])] or None
         drawing = env.drawing(k)
-        masks = build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ)
+        masks = build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ, source=shot.keyframes[k])
         for w in masks.warnings:
             env.context.log.warning(w)
         meta = {"regions": len(masks.occlusion), "foreground_px": int(masks.foreground.sum()), "source": masks.source,
@@ -54,7 +54,8 @@ def _refined(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Occlusion masks deformed so their boundaries pass through the T-junctions (§4.1)."""
         masks: Masks = env.read(f"key{k}/masks")
-        refined = refine_masks(masks, env.shot.t_junctions[k])
+        shot = env.shot
+        refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton)
         for w in refined.warnings[len(masks.warnings):]:  # the masks stage already logged its own
             env.context.log.warning(w)
         pts = [b[j] for b, j in zip(refined.boundaries, refined.junctions)]

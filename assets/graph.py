@@ -19,7 +19,7 @@ def _lane(k: int) -> dict[str, tuple[str, ...]]:
     o = 1 - k
     return {
         f"key{k}/masks": (f"key{k}/drawing", f"key{k}/pose"),
-        f"key{k}/refined_masks": (f"key{k}/masks", f"key{k}/t_junctions"),
+        f"key{k}/refined_masks": (f"key{k}/masks", f"key{k}/t_junctions", f"key{k}/pose"),
         f"key{k}/template": (f"key{k}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
         f"key{k}/textured_template": (f"key{k}/template", f"key{k}/refined_masks", f"key{k}/drawing", f"key{o}/drawing",
                                       f"key{o}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
@@ -60,7 +60,7 @@ EVAL_PARENTS: dict[str, tuple[str, ...]] = {
     "evaluation/single_layer": ("key0/refined_masks", "key1/refined_masks", "key0/drawing", "key1/drawing",
                                 "key0/pose", "key1/pose", "motion"),
     "evaluation/metrics": ("rife_matrix", "optimal_path", "evaluation/single_layer", "evaluation/rife_direct",
-                           "key0/drawing", "key1/drawing", "ground_truth"),
+                           "key0/masks", "key1/masks", "key0/drawing", "key1/drawing", "ground_truth"),
 }
 ALL_PARENTS = {**PARENTS, **EVAL_PARENTS}
 ALL_STAGES = topological(ALL_PARENTS)

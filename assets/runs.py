@@ -27,6 +27,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from ops.errors import ShotError
 from ops.settings import Settings
 from ops.shotio.load import load_shot
@@ -44,12 +46,33 @@ from .provenance import StageStatus, resolve, to_run
 SHOT_STAGES = STAGES
 
 
-class StageFailed(RuntimeError):
-    """A stage raised: names the shot, the stage and the cause; the full trace is in the log file."""
+class RelayedShotError(ShotError):
+    """A ShotError raised inside a stage, relayed from its step with its one-line message unchanged."""
 
-    def __init__(self, shot: str, stage: str, cause: str, log: Path | None):
-        self.shot, self.stage, self.cause, self.log = shot, stage, cause, log
-        super().__init__(f"{shot}: {stage}: {cause}")
+    def __init__(self, message: str):
+        ValueError.__init__(self, message)
+        self.file, self.field, self.problem, self.fix = "", "", message, ""
+
+
+# what to try when a stage of this kind fails (the cause says what went wrong)
+FIXES = {
+    "masks": "check the keyframe image and its pose, or paint masks.foreground (see `inbetween masks`)",
+    "refined_masks": "check this keyframe's T-junction clicks, or paint masks.occlusion",
+    "template": "check that the key poses' joints lie on the drawing, or paint masks.foreground / masks.occlusion",
+    "textured_template": "check the key poses' depths (z) and the occlusion masks",
+    "deformed_frames": "check the in-between poses (a bone folding through itself, a joint far off the drawing)",
+    "rife_matrix": "check INBETWEEN_DEVICE and the RIFE weights",
+}
+GENERIC_FIX = "rerun with --debug for the full trace, or see the log"
+
+
+class StageFailed(RuntimeError):
+    """A stage raised: one line naming the shot, the stage, the cause and a fix; the full trace is in the log."""
+
+    def __init__(self, shot: str, stage: str, cause: str, log: Path | None, trace: str = ""):
+        self.shot, self.stage, self.cause, self.log, self.trace = shot, stage, cause, log, trace
+        fix = FIXES.get(stage.split("/")[-1], GENERIC_FIX)
+        super().__init__(f"{shot}: {stage}: {cause}; fix: {fix}")
 
 
 # ---------------------------------------------------------------- planning (no Dagster)
@@ -236,13 +259,19 @@ class Session:
             if failures:
                 ev = failures[0]
                 err = ev.event_specific_data.error
-                cause = err.cause or err
                 stage = ev.step_key.replace("__", "/")
-                if getattr(cause, "cls_name", "") == "ShotError" or err.cls_name == "ShotError":
-                    message = (cause.message if cause is not None else err.message).strip().splitlines()[-1]
-                    raise ShotError(shot, stage, message.split(": ", 1)[-1], "fix the input named above")
-                message = (cause.message or err.message).strip().splitlines()
-                raise StageFailed(shot, stage, message[0] if message else "failed", log_path)
+                chain = [err]
+                while chain[-1].cause is not None:
+                    chain.append(chain[-1].cause)
+                for e in chain:  # bad input found inside a stage: the same one-line error as at loading
+                    if e.cls_name == "ShotError":
+                        text = e.message.strip().splitlines()[-1]
+                        raise RelayedShotError(text.split("ShotError: ", 1)[-1])
+                cause = chain[-1]
+                lines = cause.message.strip().splitlines()
+                text = lines[0] if lines else "failed"
+                raise StageFailed(shot, stage, text if text.startswith(cause.cls_name) else f"{cause.cls_name}: {text}",
+                                  log_path, err.to_string())
             raise StageFailed(shot, "run", "the Dagster run failed", log_path)
         return result
 
@@ -330,6 +359,35 @@ def evaluate_stages(shot_dir: str | Path, settings: Settings | None = None, verb
             execute(p, settings, p.to_run or list(EVAL_STAGES), verbose)
             _remember_ui(p, EVAL_STAGES)
     return partition
+
+
+def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None,
+                 predicted: bool = False) -> list[Path]:
+    """Write each keyframe's masks as manual masks accept them (SHOT_FORMAT.md `inbetween masks`):
+    OUT/key{k}_foreground.png and OUT/key{k}_occlusion_{i}.png, 8-bit, 255 = inside, keyframe size.
+
+    The occlusion masks are the refined ones the template is built from (after the T-junctions), unless
+    `predicted`; runs only the mask stages that are not fresh.
+    """
+    from ops.shotio.image_io import write_image
+
+    settings = settings or Settings()
+    stage = "masks" if predicted else "refined_masks"
+    names = tuple(f"key{k}/{n}" for k in (0, 1) for n in ("masks", "refined_masks"))
+    shot = load_shot(shot_dir)
+    partition = register(shot.root)
+    with shot_lock(partition):
+        p = plan(shot.root, settings, names, shot=shot)
+        if p.to_run:
+            execute(p, settings, p.to_run)
+    out, written = Path(out_dir), []
+    out.mkdir(parents=True, exist_ok=True)
+    for k in (0, 1):
+        masks = store().read(f"key{k}/{stage}", partition)
+        written.append(write_image(out / f"key{k}_foreground.png", masks.foreground.astype(np.float32)))
+        for i, region in enumerate(masks.occlusion):
+            written.append(write_image(out / f"key{k}_occlusion_{i}.png", region.astype(np.float32)))
+    return written
 
 
 def _batch_worker(shot_dir: str, out_dir: str, settings: Settings) -> tuple[str, dict | None, str | None]:

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.segmentation.snap import snap_into
+from ops.geometry.snap import snap_into
 from ops.types import MIN_BONE_PX, Skeleton, bone_frames
 
 SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (its outlines are DP-simplified by 1 px)

@@ -17,19 +17,15 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from scipy import ndimage
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
+from ops.geometry.snap import snap_into
 from ops.segmentation.domain import mesh_domain
-from ops.segmentation.snap import snap_into
-from ops.types import Masks, RefinedMasks
+from ops.segmentation.junctions import assign_junctions
+from ops.types import Masks, RefinedMasks, Skeleton
 
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
-MERGE_CLICKS_PX = 4.0  # clicks this close are one junction clicked several times
-ASSOCIATE_PX = 12.0  # a junction farther than this from every region boundary belongs to none
 SEGMENT_PX = 4.0  # boundary edge length of the deformation mesh
 MESH_DP_EPS_PX = 0.75  # tolerance of the contour the deformation mesh is built on
 
@@ -93,82 +89,6 @@ def rasterize(P: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     pts = np.round(P * 16).astype(np.int32).reshape(-1, 1, 2)  # 4 fractional bits
     cv2.fillPoly(img, [pts], 1, lineType=cv2.LINE_8, shift=4)
     return img > 0
-
-
-# ---------------------------------------------------------------- junctions
-
-
-def merge_clicks(points: np.ndarray, radius: float = MERGE_CLICKS_PX) -> tuple[np.ndarray, list[str]]:
-    """(k', 2) float64 cluster means of (k, 2) clicks chained within `radius` pixels; warnings."""
-    pts = np.asarray(points, np.float64).reshape(-1, 2)
-    if len(pts) < 2:
-        return pts, []
-    pairs = np.array(sorted(cKDTree(pts).query_pairs(radius)), np.int64).reshape(-1, 2)
-    if len(pairs) == 0:
-        return pts, []
-    A = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(pts), len(pts)))
-    n, lab = connected_components(A, directed=False)
-    counts = np.bincount(lab, minlength=n)
-    merged = np.stack([np.bincount(lab, pts[:, d], n) for d in (0, 1)], axis=1) / counts[:, None]
-    warnings = [
-        f"{int(c)} T-junction clicks within {radius:g} px merged into one at ({x:.1f}, {y:.1f})"
-        for c, (x, y) in zip(counts, merged)
-        if c > 1
-    ]
-    return merged, warnings
-
-
-def _boundary_distance(mask: np.ndarray) -> np.ndarray:
-    """(H, W) float64 distance, pixels, to the nearest boundary pixel of a (H, W) bool mask."""
-    inner = mask & ~ndimage.binary_erosion(mask, border_value=0)
-    return ndimage.distance_transform_edt(~inner)
-
-
-def snap_junctions(
-    points: np.ndarray, region_masks: list[np.ndarray], foreground: np.ndarray, tol: float = ASSOCIATE_PX
-) -> tuple[list[np.ndarray], list[str]]:
-    """(k, 2) T-junctions grouped per region ((k_r, 2) float64 each, pixels), with warnings.
-
-    Repeated clicks are merged; a junction outside the foreground is snapped onto its boundary (the
-    refined masks are clipped to it); each goes to the region whose boundary is nearest within `tol`
-    pixels, else it is dropped. Junctions are not moved onto the region: the region is moved onto
-    them (refine_region).
-    """
-    pts, warnings = merge_clicks(points)
-    per_region = [np.zeros((0, 2)) for _ in region_masks]
-    if len(pts) == 0:
-        return per_region, warnings
-    snapped, moved = snap_into(foreground, pts)
-    shift = np.linalg.norm(snapped - pts, axis=1)
-    keep = np.ones(len(pts), bool)
-    for i in np.nonzero(moved)[0]:
-        x, y = pts[i]
-        if shift[i] > tol:
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) is {shift[i]:.1f} px outside the character; dropped")
-            keep[i] = False
-        elif shift[i] > 0:
-            warnings.append(
-                f"T-junction ({x:.1f}, {y:.1f}) was {shift[i]:.1f} px outside the foreground; snapped onto its boundary"
-            )
-    if not region_masks:
-        for x, y in pts[keep]:
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) ignored: there is no occlusion region")
-        return per_region, warnings
-    h, w = foreground.shape
-    col = np.clip(np.round(snapped[:, 0]).astype(int), 0, w - 1)
-    row = np.clip(np.round(snapped[:, 1]).astype(int), 0, h - 1)
-    dist = np.stack([_boundary_distance(m)[row, col] for m in region_masks])  # (R, k)
-    owner = np.argmin(dist, axis=0)
-    for i in np.nonzero(keep)[0]:
-        d = dist[owner[i], i]
-        if d > tol:
-            x, y = pts[i]
-            warnings.append(
-                f"T-junction ({x:.1f}, {y:.1f}) is {d:.1f} px from every occlusion region (> {tol:g} px); dropped"
-            )
-            continue
-        per_region[owner[i]] = np.vstack([per_region[owner[i]], snapped[i]])
-    return per_region, warnings
 
 
 def _insert_points(P: np.ndarray, Q: np.ndarray, reuse_px: float = 0.75) -> tuple[np.ndarray, np.ndarray]:
@@ -288,14 +208,19 @@ def _positions(B: np.ndarray, J: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=0).astype(np.int64)
 
 
-def refine_masks(masks: Masks, t_junctions: np.ndarray) -> RefinedMasks:
-    """Refine every occlusion region of `masks` by the keyframe's (k, 2) T-junctions (pixels)."""
+def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> RefinedMasks:
+    """Refine every occlusion region of `masks` by the keyframe's (k, 2) T-junctions (pixels) at its (J, 3) pose.
+
+    Every click is kept: a region is grown to meet a click far from it, or started at a click when there is
+    no region at all (ops.segmentation.junctions).
+    """
     warnings = list(masks.warnings)
     fg = masks.foreground
-    per_region, w = snap_junctions(np.asarray(t_junctions, np.float64).reshape(-1, 2), masks.occlusion, fg)
+    regions, front_bones, per_region, w = assign_junctions(np.asarray(t_junctions, np.float64).reshape(-1, 2),
+                                                           masks.occlusion, masks.front_bones, fg, pose, skeleton)
     warnings += w
     occ, fronts, bounds, juncs = [], [], [], []
-    for r, (region, front, J) in enumerate(zip(masks.occlusion, masks.front_bones, per_region)):
+    for r, (region, front, J) in enumerate(zip(regions, front_bones, per_region)):
         n_comp = ndimage.label(region, structure=np.ones((3, 3), bool))[1]
         if n_comp > 1 and len(J):
             warnings.append(f"occlusion region {r} has {n_comp} pieces; only the largest is refined and kept")

@@ -35,6 +35,12 @@ def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, 
     assert frames.shape[3] == 4 and frames.shape[1:3] == (192, 192)
     report = json.loads((out / "report.json").read_text())
     assert report["frames"] == n and len(report["times"]) == n and set(report["stages"]) == set(STAGES)
+    # the output's first and last frames are the keyframes (issue 8: >= 40 dB composited over white)
+    from ops.evaluation.metrics import psnr
+    from ops.shotio.image_io import read_image
+
+    for i, key in ((0, "key0.png"), (-1, "key1.png")):
+        assert psnr(frames[i], read_image(small_shot / key)) >= 40.0
     second = run_shot(small_shot, tmp_path / "out2")
     assert executed(second) == set()
     assert all(s["cached"] for s in second["stages"].values())

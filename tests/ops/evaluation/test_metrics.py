@@ -78,3 +78,22 @@ def test_psnr_reads_rgba_as_drawn_on_white():
     ink = paper.copy()
     ink[0, 0, :3] = 0.0                             # one opaque black pixel out of 64
     assert psnr(ink, paper) == pytest.approx(10 * np.log10(64 * 3 / 3), rel=1e-9)
+
+
+def test_paper_plate_gives_back_each_keyframe_and_over_is_exact():
+    from ops.evaluation.plate import over, paper_plate
+
+    rng = np.random.default_rng(3)
+    paper = (0.9 + 0.05 * rng.random((20, 30, 3))).astype(np.float32)  # grainy, tinted
+    key0, key1 = paper.copy(), paper.copy()
+    c0, c1 = np.zeros((20, 30), np.float32), np.zeros((20, 30), np.float32)
+    c0[5:10, 5:10], c1[8:15, 12:20] = 1.0, 1.0
+    key0[c0 > 0], key1[c1 > 0] = 0.1, 0.2
+    smooth = np.full((20, 30, 3), 0.92, np.float32)
+    plate = paper_plate(key0, key1, c0, c1, smooth, smooth)
+    assert np.array_equal(plate[c0 == 0], key0[c0 == 0])  # key0's own paper, grain included
+    assert np.array_equal(plate[(c0 > 0) & (c1 == 0)], key1[(c0 > 0) & (c1 == 0)])  # uncovered by key1
+    rgb = np.broadcast_to(np.where(c0[..., None] > 0, 0.1, 0.5), (20, 30, 3))
+    rgba = np.concatenate([rgb, c0[..., None]], 2).astype(np.float32)
+    assert np.allclose(over(rgba[None], plate)[0], key0)  # our frame 0 over the plate is keyframe 0
+    assert np.array_equal(over(key1[None], plate)[0], key1)  # opaque frames are unchanged

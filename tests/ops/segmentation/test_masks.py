@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from ops.errors import ShotError
+from ops.geometry.snap import snap_into
 from ops.segmentation.bones import bone_radii, bone_regions, segment_distance, thick_regions
 from ops.segmentation.foreground import foreground_mask
 from ops.segmentation.masks import build_masks
 from ops.segmentation.occlusion import predict_occlusion
-from ops.segmentation.snap import snap_into
 from ops.types import Skeleton
 
 PAPER = np.array([0.97, 0.95, 0.90], np.float32)  # faintly tinted paper

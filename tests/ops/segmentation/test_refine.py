@@ -5,17 +5,13 @@ import cv2
 import numpy as np
 
 from ops.geometry.mesh import polygon_area
+from ops.segmentation.junctions import assign_junctions, merge_clicks
 from ops.segmentation.masks import build_masks
-from ops.segmentation.refine import (
-    mask_boundary,
-    merge_clicks,
-    rasterize,
-    refine_masks,
-    refine_region,
-    simplify,
-    snap_junctions,
-)
+from ops.segmentation.refine import mask_boundary, rasterize, refine_masks, refine_region, simplify
+from ops.types import Skeleton
 from tests.ops.segmentation.test_masks import crossing_scene, ellipse_mask, iou
+
+STICK = Skeleton(joints=("a", "b"), parents=np.array([-1, 0]))
 
 
 def point_to_polyline(Q: np.ndarray, P: np.ndarray) -> np.ndarray:
@@ -66,20 +62,23 @@ def test_three_adjacent_clicks_become_one():
     assert np.allclose(merged[np.argmin(merged[:, 0])], [30 + 2 / 3, 30 + 1 / 3])
 
 
-def test_junction_outside_foreground_snapped_and_far_one_dropped():
+def test_junction_outside_is_moved_on_and_a_far_one_grows_the_region():
     fg = np.zeros((80, 80), bool)
     fg[10:70, 10:70] = True
     region = np.zeros_like(fg)
     region[30:50, 50:70] = True  # touches the foreground's right edge x = 69
     outside = [72.0, 40.0]  # 3 px right of the foreground (and of the region)
     far = [15.0, 15.0]  # inside the foreground, > 12 px from the region
-    per, warnings = snap_junctions(np.array([outside, far, [72.5, 40.5], [73.0, 39.5]]), [region], fg)
-    assert len(per[0]) == 1
+    pose = np.array([[20.0, 40.0, 0.0], [60.0, 40.0, -1.0]])
+    regions, _, per, warnings = assign_junctions(np.array([outside, far, [72.5, 40.5], [73.0, 39.5]]), [region],
+                                                 [np.array([0])], fg, pose, STICK)
+    assert len(per) == 1 and len(per[0]) == 2  # nothing is dropped
     x, y = per[0][0]
     assert fg[int(y), int(x)] and x == 69  # on the foreground boundary
-    assert any("merged" in w for w in warnings)
-    assert any("snapped" in w for w in warnings)
-    assert any("dropped" in w for w in warnings)
+    assert regions[0][15, 15] and regions[0].sum() > region.sum()  # grown along a strip out to the far click
+    assert regions[0][region].all() and not (regions[0] & ~fg).any()
+    assert any("merged" in w for w in warnings) and any("moved onto it" in w for w in warnings)
+    assert any("grown" in w for w in warnings)
 
 
 def test_junctions_go_to_nearest_region():
@@ -88,8 +87,27 @@ def test_junctions_go_to_nearest_region():
     a[10:30, 10:30] = True
     b = np.zeros_like(fg)
     b[40:70, 40:70] = True
-    per, _ = snap_junctions(np.array([[32.0, 20.0], [38.0, 50.0], [45.0, 60.0], [55.0, 55.0]]), [a, b], fg)
-    assert len(per[0]) == 1 and len(per[1]) == 2  # (55, 55) is 15 px deep inside b: dropped
+    pose = np.array([[20.0, 20.0, 0.0], [55.0, 55.0, 0.0]])
+    _, _, per, warnings = assign_junctions(np.array([[32.0, 20.0], [38.0, 50.0], [45.0, 60.0], [55.0, 55.0]]), [a, b],
+                                           [np.array([0]), np.array([0])], fg, pose, STICK)
+    assert len(per[0]) == 1 and len(per[1]) == 3  # (55, 55) is 15 px deep inside b: b is reshaped through it
+    assert any("inside occlusion region 1" in w for w in warnings)
+
+
+def test_click_without_any_region_starts_one_in_front_of_it():
+    """An arm (nearer, z = -1) over a torso: no predicted region, one click where the outlines meet."""
+    fg = np.zeros((100, 100), bool)
+    fg[20:90, 30:70] = True  # torso
+    fg[45:55, 10:90] = True  # arm across it
+    sk = Skeleton(joints=("hips", "neck", "shoulder", "hand"), parents=np.array([-1, 0, 1, 2]))
+    pose = np.array([[50.0, 85.0, 0.0], [50.0, 25.0, 0.0], [15.0, 50.0, -1.0], [85.0, 50.0, -1.0]])
+    click = np.array([[30.0, 45.0]])  # the arm's upper outline meets the torso's left outline
+    regions, fronts, per, warnings = assign_junctions(click, [], [], fg, pose, sk)
+    assert len(regions) == 1 and len(per[0]) == 1 and np.array_equal(fronts[0], [2])  # bone shoulder-hand
+    ys, xs = np.nonzero(regions[0])
+    assert ys.mean() > 45  # the region lies in the arm, below its upper outline
+    assert np.hypot(xs - 30, ys - 45).min() <= 1.5  # and the click is on its rim
+    assert any("started" in w for w in warnings)
 
 
 def test_refine_region_passes_through_junctions():
@@ -140,7 +158,7 @@ def test_refine_masks_on_crossing_improves_the_prediction():
     contour = raw_contour(true)
     s, d = contour.sum(1), contour[:, 0] - contour[:, 1]
     corners = contour[[s.argmin(), s.argmax(), d.argmin(), d.argmax()]]  # where the arm's outline meets the torso's
-    refined = refine_masks(masks, corners)
+    refined = refine_masks(masks, corners, pose, skeleton)
     best = int(np.argmax([iou(r, true) for r in refined.occlusion]))
     before = max(iou(r, true) for r in masks.occlusion)
     assert iou(refined.occlusion[best], true) > before + 0.05
