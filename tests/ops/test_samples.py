@@ -95,7 +95,7 @@ def test_t_junctions_lie_on_ink(d):
 def test_occlusion_structure_per_shot():
     """What each shot is meant to show: where occlusions and T-junctions are, and which masks are listed."""
     tj = {n: [len(p) for p in _load(ROOT / n)["t_junctions"]] for n in NAMES}
-    occ = {n: sorted(f.name for f in (ROOT / n / "gt_occ").glob("*.png")) for n in NAMES}
+    occ = {n: sorted(e["file"] for e in json.loads((ROOT / n / "gt_occ" / "index.json").read_text())) for n in NAMES}
     assert tj["no_occlusion"] == [0, 0] and occ["no_occlusion"] == []
     assert tj["arm_cross"] == [0, 2] and occ["arm_cross"] == ["key1_occ0.png"]
     assert tj["manual_masks"] == [2, 0] and occ["manual_masks"] == ["key0_occ0.png"]
