@@ -29,6 +29,13 @@ def part_outline(part: Part, p0: np.ndarray, p1: np.ndarray) -> tuple[np.ndarray
         pts = 0.5 * (p0 + p1) + np.stack([a * np.cos(s), b * np.sin(s)], 1) @ rot.T
         nrm = np.stack([b * np.cos(s), a * np.sin(s)], 1) @ rot.T
         normals = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
+    elif part.shape == "head":  # an ellipse centred on the child joint: half-axes pad (along) and radius
+        s = np.linspace(0, 2 * math.pi, 2 * n, endpoint=False)
+        a, b = part.pad, part.radius
+        rot = np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
+        pts = p1 + np.stack([a * np.cos(s), b * np.sin(s)], 1) @ rot.T
+        nrm = np.stack([b * np.cos(s), a * np.sin(s)], 1) @ rot.T
+        normals = nrm / np.linalg.norm(nrm, axis=1, keepdims=True)
     elif part.shape == "taper":
         pts, normals = _taper(part, p0, p1, phi)
     elif part.shape == "trapezoid":

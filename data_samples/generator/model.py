@@ -11,7 +11,8 @@ import numpy as np
 class Part:
     """How one bone is drawn: shape, half-width (px), padding past the joints (px, ellipse), texture.
 
-    shape: "capsule" | "ellipse" | "taper" (half-width `radius` at the parent joint, `radius1` at the child)
+    shape: "capsule" | "ellipse" | "head" (ellipse centred on the child joint, half-axes pad along, radius across)
+    | "taper" (half-width `radius` at the parent joint, `radius1` at the child)
     | "trapezoid" (straight sides from `radius` to `radius1`, hem bulging by `pad`) | "none" (not drawn).
     offset: shift of the shape across the bone (px, along the bone's left normal), e.g. a belly.
     material: palette key of the fill colour; name: the part's name in ground truth (default: child joint).
@@ -25,6 +26,7 @@ class Part:
     offset: float = 0.0
     material: str = "body"
     name: str = ""
+    joined: bool = False  # drawn as one shape with the part on the parent bone: no outline where they overlap
 
 
 @dataclass
@@ -53,6 +55,17 @@ class Character:
     def adjacent(self, b1: tuple[int, int], b2: tuple[int, int]) -> bool:
         """True when two bones share a joint."""
         return bool(set(b1) & set(b2))
+
+    def joined(self, b1: int, b2: int) -> bool:
+        """True when bone indices b1 and b2 are painted as one shape: at most two `joined` links apart along a
+        chain (a thick tail's segments overlap their neighbour's neighbour too; farther ones cross visibly)."""
+        if not hasattr(self, "_joined_pairs"):
+            bone_of = {c: i for i, (_, c) in enumerate(self.bones)}  # child joint -> bone index
+            links = {(i, bone_of[p]) for i, (p, c) in enumerate(self.bones) if self.parts[c].joined and p in bone_of}
+            links |= {(b, a) for a, b in links}
+            two = {(a, d) for a, b in links for c, d in links if b == c and a != d}
+            self._joined_pairs = links | two
+        return (b1, b2) in self._joined_pairs
 
     def part_name(self, bone: int) -> str:
         """Ground-truth name of the part on bone index `bone` (its own name, else "parent-child" joint names)."""
@@ -117,11 +130,13 @@ def _ellipse_uv(cu: float, cv: float, au: float, av: float, n: int = 24) -> np.n
 def _more_texture(kind: str, rng: np.random.Generator) -> list:
     """Strokes of the textures added for round bodies, clothes, fur and props (see make_texture)."""
     strokes: list = []
-    if kind == "belly":  # a paler belly patch toward the +v side with cross-hatched shading under it
-        strokes.append(("patch", _ellipse_uv(0.5, 0.32, 0.4, 0.55), "belly"))
-        for u in np.linspace(0.3, 0.62, int(rng.integers(4, 6))):
-            strokes.append(("line", np.array([[u, 0.45], [u + 0.1, 0.8]]), rng.uniform(0.9, 1.2)))
-            strokes.append(("line", np.array([[u + 0.1, 0.45], [u, 0.8]]), rng.uniform(0.9, 1.2)))
+    if kind in ("belly", "tummy"):  # a paler belly patch (side view: toward +v; front view: centred),
+        cv = 0.3 if kind == "belly" else 0.0  # its drawn edge, and shading strokes along its lower side
+        belly = _ellipse_uv(0.48, cv, 0.4, 0.55)
+        strokes.append(("patch", belly, "belly"))
+        strokes.append(("line", np.vstack([belly, belly[:1]]), rng.uniform(1.0, 1.3)))
+        for u in np.linspace(0.2, 0.42, int(rng.integers(4, 6))):  # hatching on the shaded lower side
+            strokes.append(("line", np.array([[u, cv + 0.12], [u + 0.1, cv + 0.42]]), rng.uniform(0.8, 1.1)))
     elif kind == "crosshatch":  # shading on one side, not an occlusion contour
         for u in np.linspace(0.22, 0.7, int(rng.integers(4, 7))):
             strokes.append(("line", np.array([[u, 0.2], [u + 0.16, 0.75]]), rng.uniform(0.8, 1.1)))
@@ -140,12 +155,20 @@ def _more_texture(kind: str, rng: np.random.Generator) -> list:
             u = rng.uniform(0.2, 0.8)
             v = np.linspace(0, rng.uniform(0.3, 0.6), 4) * rng.choice([-1.0, 1.0])
             strokes.append(("line", np.stack([u + 0.1 * v ** 2 + rng.uniform(-0.03, 0.03), v], 1), rng.uniform(0.8, 1.1)))
+    elif kind == "boot_shaft":  # the lower part of a shin is the boot's shaft, with a line at its top
+        strokes.append(("patch", np.array([[0.62, -1.4], [1.4, -1.4], [1.4, 1.4], [0.62, 1.4]]), "boots"))
+        v = np.linspace(-1.0, 1.0, 5)
+        strokes.append(("line", np.stack([0.62 + 0.04 * (1 - v ** 2), v], 1), 0.9))
     elif kind == "hair":  # bone runs neck -> top of head: hair covers the top, a face below it
         strokes.append(("patch", np.array([[0.62, -1.05], [0.8, -1.1], [1.0, -0.8], [1.12, 0.0], [1.0, 0.8],
                                            [0.8, 1.1], [0.62, 1.05], [0.7, 0.4], [0.74, -0.2]]), "hair"))
         strokes += [("dot", (0.5, -0.33), 1.6), ("dot", (0.5, 0.33), 1.6)]
         v = np.linspace(-0.28, 0.28, 7)
         strokes.append(("line", np.stack([0.28 + 0.07 * (v / 0.28) ** 2, v], 1), 1.2))
+    elif kind == "face_front":  # a "head" part centred on its joint (u = 1): eyes above, snout and mouth below
+        strokes += [("dot", (1.22, -0.33), 1.8), ("dot", (1.22, 0.33), 1.8), ("dot", (0.92, 0.0), 2.4)]
+        v = np.linspace(-0.3, 0.3, 9)
+        strokes.append(("line", np.stack([0.74 + 0.1 * (v / 0.3) ** 2, v], 1), 1.2))
     elif kind == "face_side":  # a side-view head from neck to snout: one eye, a mouth line
         strokes.append(("dot", (0.62, -0.32), 1.8))
         strokes.append(("line", np.array([[0.6, 0.35], [0.8, 0.3], [0.98, 0.2]]), 1.1))

@@ -22,6 +22,7 @@ class Occlusion:
     mask: np.ndarray  # (H, W) bool
     junctions: np.ndarray  # (k, 2) float64 px, visible crossings of the two outlines
     adjacent: bool = False  # the two bones share a joint (a joint overlap, a thigh under a skirt on the pelvis)
+    joined: bool = False  # painted as one shape (a tail's segments): nothing in the drawing shows this overlap
 
 
 def occlusion_pairs(char: Character, pose: np.ndarray, coverage: list[np.ndarray],
@@ -49,7 +50,9 @@ def occlusion_pairs(char: Character, pose: np.ndarray, coverage: list[np.ndarray
             if mask.sum() < MIN_OVERLAP_PX:
                 continue
             front, back = (i, j) if rank[i] > rank[j] else (j, i)
-            out.append(Occlusion(front, back, mask, t_junctions(char, pose, front, back, rank, adjacent), adjacent))
+            joined = char.joined(i, j)  # painted as one shape: the outlines meet in corners, not T-junctions
+            junctions = np.zeros((0, 2)) if joined else t_junctions(char, pose, front, back, rank, adjacent)
+            out.append(Occlusion(front, back, mask, junctions, adjacent, joined))
     return out
 
 

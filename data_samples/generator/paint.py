@@ -20,7 +20,7 @@ from .raster import SS, bone_frame, fill, patch_images, strokes_image
 from .styles import Palette, Style
 
 INK_RGB = np.array([0.07, 0.07, 0.09], np.float32)
-GRAPHITE_RGB = np.array([0.33, 0.33, 0.36], np.float32)
+GRAPHITE_RGB = np.array([0.27, 0.27, 0.3], np.float32)
 
 
 @dataclass
@@ -86,6 +86,7 @@ def paint(char: Character, pose: np.ndarray, size: tuple[int, int], style: Style
     canvas = paper.rgb.copy()
     union_ss = np.zeros((h_img * SS, w_img * SS), np.uint8)
     coverage = [np.zeros(size, np.float32) for _ in char.bones]
+    interior: dict[int, np.ndarray] = {}  # bone -> (H, W) coverage inside its outline, for joined neighbours
     for i in draw_order(char, pose):
         p, c = char.bones[i]
         part = char.parts[c]
@@ -114,12 +115,22 @@ def paint(char: Character, pose: np.ndarray, size: tuple[int, int], style: Style
         if style.soften:
             cov = cv2.GaussianBlur(cov, (0, 0), style.soften)
         inner = _down(fill(big, inner_pts, origin), w, h) if inner_pts is not None else cov
-        tex = _down(strokes_image(big, char.strokes[c], p0, p1, part.radius, origin), w, h)
+        strokes = char.strokes[c]
+        if style.fill == "paper":  # line art outlines the colour patches (hair, belly, boot shaft) instead
+            strokes = strokes + [("line", np.vstack([g, g[:1]]), 1.0) for k, g, _ in strokes if k == "patch"]
+        tex = _down(strokes_image(big, strokes, p0, p1, part.radius, origin), w, h)
         patches = [(m, _down(a, w, h)) for m, a in patch_images(big, char.strokes[c], p0, p1, part.radius, origin)]
         sl = (slice(y0, y1), slice(x0, x1))
-        rgb = _appearance(style, palette, paper, sl, part, cov, inner, tex, patches, p0, p1, pts, param, origin, looks)
+        merged = np.zeros((h, w), np.float32)  # inside already painted parts this one is joined to: one shape
+        for j, inside in interior.items():
+            if char.joined(i, j):
+                merged = np.maximum(merged, inside[sl])
+        rgb = _appearance(style, palette, paper, sl, part, cov, inner, tex, patches, p0, p1, pts, param, origin,
+                          looks, merged)
         canvas[sl] = canvas[sl] * (1 - cov[..., None]) + rgb * cov[..., None]
         coverage[i][sl] = cov
+        interior[i] = np.zeros(size, np.float32)
+        interior[i][sl] = inner
     union = _down(union_ss.astype(np.float32) / 255.0, w_img, h_img)
     if style.soften:
         union = cv2.GaussianBlur(union, (0, 0), style.soften)
@@ -128,20 +139,25 @@ def paint(char: Character, pose: np.ndarray, size: tuple[int, int], style: Style
 
 def _appearance(style: Style, palette: Palette, paper: Paper, sl: tuple[slice, slice], part: Part,
                 cov: np.ndarray, inner: np.ndarray, tex: np.ndarray, patches: list, p0: np.ndarray, p1: np.ndarray,
-                pts: np.ndarray, param: np.ndarray, origin: np.ndarray, looks: np.random.Generator) -> np.ndarray:
-    """(h, w, 3) reflectance of one part over its crop: fill, outline and texture strokes."""
+                pts: np.ndarray, param: np.ndarray, origin: np.ndarray, looks: np.random.Generator,
+                merged: np.ndarray) -> np.ndarray:
+    """(h, w, 3) reflectance of one part over its crop: fill, outline and texture strokes; no outline inside
+    `merged` (h, w), the coverage of the parts it is joined to."""
     base, opacity = colour(palette, part.material)
     col = np.broadcast_to(base, (*cov.shape, 3)).copy()
+    opac = np.full(cov.shape, opacity, np.float32)
     for material, a in patches:
-        col += (colour(palette, material)[0] - col) * (a * inner)[..., None]
+        c_patch, o_patch = colour(palette, material)
+        col += (c_patch - col) * (a * inner)[..., None]
+        opac += (o_patch - opac) * a * inner
     paper_rgb, grain = paper.rgb[sl], paper.grain[sl]
-    ring = np.clip(cov - inner, 0, 1)
+    ring = np.clip(cov - inner, 0, 1) * (1 - merged)
     if style.fill == "paper":
         rgb = paper_rgb.copy()
     elif style.fill == "flat":
         rgb = col
     else:
-        rgb = _wash(col, opacity, paper_rgb, grain, inner, p0, p1, origin, looks)
+        rgb = _wash(col, opac, paper_rgb, grain, np.maximum(inner, merged), p0, p1, origin, looks)
     tex_a = tex * inner
     if style.line == "graphite":  # pressure along the stroke and the paper's tooth break the line up
         pressure = _pressure(pts, param, origin, cov.shape, style.line_width, looks)
@@ -159,10 +175,10 @@ def _appearance(style: Style, palette: Palette, paper: Paper, sl: tuple[slice, s
     return rgb + (tex_rgb - rgb) * tex_a[..., None]
 
 
-def _wash(col: np.ndarray, opacity: float, paper_rgb: np.ndarray, grain: np.ndarray, inner: np.ndarray,
+def _wash(col: np.ndarray, opacity: np.ndarray, paper_rgb: np.ndarray, grain: np.ndarray, inner: np.ndarray,
           p0: np.ndarray, p1: np.ndarray, origin: np.ndarray, looks: np.random.Generator) -> np.ndarray:
     """(h, w, 3) watercolour: pigment density varying in blotches, granulating in the paper's tooth, pooling
-    darker along the wash's edge; opaque materials (white gouache) cover the paper and only grey at the edge."""
+    darker along the edge of `inner` (h, w: the wash and what it is joined to); opaque materials (white gouache) cover the paper and only grey at the edge."""
     h, w = inner.shape
     d, n = bone_frame(p0, p1)
     u = d / max(float(np.hypot(*d)), 1e-9)
@@ -171,12 +187,12 @@ def _wash(col: np.ndarray, opacity: float, paper_rgb: np.ndarray, grain: np.ndar
     xy = np.stack([rel @ u.astype(np.float32), rel @ n.astype(np.float32)], -1)  # bone frame: moves with the part
     dist = cv2.distanceTransform((inner > 0.5).astype(np.uint8), cv2.DIST_L2, 3)
     pool = np.exp(-dist / 1.8)
-    density = (1 + 0.13 * _blotches(xy, looks)) * (1 + 0.22 * grain) * (1 + 0.75 * pool)
+    density = (1 + 0.08 * _blotches(xy, looks)) * (1 + 0.12 * grain) * (1 + 0.75 * pool)
     transparent = paper_rgb * np.power(np.maximum(col, 1e-3), density[..., None])
-    if opacity <= 0:
+    if not opacity.any():
         return transparent
     opaque = col * (1 - 0.2 * pool - 0.02 * grain)[..., None]
-    return (1 - opacity) * transparent + opacity * opaque
+    return transparent + (opaque - transparent) * opacity[..., None]
 
 
 def _pressure(pts: np.ndarray, param: np.ndarray, origin: np.ndarray, shape: tuple[int, int], width: float,

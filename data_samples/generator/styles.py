@@ -28,7 +28,7 @@ STYLES: dict[str, Style] = {
     "ink": Style("ink", "paper", "ink", 2.4, "white"),
     "watercolour": Style("watercolour", "wash", "none", 0.0, "offwhite", wobble=0.9, soften=0.9),
     "flat_colour": Style("flat_colour", "flat", "shade", 2.2, "white"),
-    "pencil": Style("pencil", "paper", "graphite", 1.4, "sketch"),
+    "pencil": Style("pencil", "paper", "graphite", 1.6, "sketch"),
     "scan": Style("scan", "paper", "ink", 2.3, "photo", photo=True),
 }
 

@@ -86,6 +86,7 @@ def pair_record(spec: ShotSpec, o: Occlusion, k: int, pose: np.ndarray, file: st
             "back_part": spec.char.part_name(o.back), "front_bone": o.front, "back_bone": o.back,
             "front_joints": list(bones[o.front]), "back_joints": list(bones[o.back]),
             "front_depth": depth(o.front), "back_depth": depth(o.back), "adjacent": o.adjacent,
+            "joined": o.joined,
             "pixels": int(o.mask.sum()), "t_junctions": _points(o.junctions)}
 
 
