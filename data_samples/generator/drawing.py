@@ -21,9 +21,10 @@ class Look:
     photo: Photo | None
 
 
-def make_look(style: str, palette: Palette, size: tuple[int, int], seed: int) -> Look:
-    """The look of a shot or sample of `size` (H, W); the same seed gives the same paper and camera."""
-    st = STYLES[style]
+def make_look(style: str | Style, palette: Palette, size: tuple[int, int], seed: int) -> Look:
+    """The look of a shot or sample of `size` (H, W) in a style (a STYLES name or a variant);
+    the same seed gives the same paper and camera."""
+    st = STYLES[style] if isinstance(style, str) else style
     return Look(st, palette, make_paper(st.paper, size, seed), make_photo(size, seed) if st.photo else None)
 
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from .geometry import part_outline, polygon_crossings, signed_distance
@@ -36,6 +37,8 @@ def occlusion_pairs(char: Character, pose: np.ndarray, coverage: list[np.ndarray
     rank = {b: r for r, b in enumerate(order)}
     bones = char.bones
     boxes = {i: _box(coverage[i] > 0.5) for i in rank}
+    outlines = {i: part_outline(char.parts[bones[i][1]], pose[bones[i][0], :2], pose[bones[i][1], :2])[0]
+                for i in rank}  # computed once: every pair's T-junction test reads them
     out = []
     for i in range(len(bones)):
         for j in range(i + 1, len(bones)):
@@ -51,7 +54,7 @@ def occlusion_pairs(char: Character, pose: np.ndarray, coverage: list[np.ndarray
                 continue
             front, back = (i, j) if rank[i] > rank[j] else (j, i)
             joined = char.joined(i, j)  # painted as one shape: the outlines meet in corners, not T-junctions
-            junctions = np.zeros((0, 2)) if joined else t_junctions(char, pose, front, back, rank, adjacent)
+            junctions = np.zeros((0, 2)) if joined else t_junctions(char, pose, front, back, rank, adjacent, outlines)
             out.append(Occlusion(front, back, mask, junctions, adjacent, joined))
     return out
 
@@ -73,14 +76,16 @@ def _boxes_meet(a: tuple | None, b: tuple | None) -> bool:
 
 
 def t_junctions(char: Character, pose: np.ndarray, front: int, back: int, rank: dict[int, int],
-                adjacent: bool = False) -> np.ndarray:
-    """(k, 2) px points where the back part's outline meets the front part's outline, not hidden by a third part."""
-    geo = {}
-    for b in range(len(char.bones)):
+                adjacent: bool = False, outlines: dict[int, np.ndarray] | None = None) -> np.ndarray:
+    """(k, 2) px points where the back part's outline meets the front part's outline, not hidden by a third part.
+
+    outlines: optional cache, bone -> (n, 2) outline polygon (part_outline) in this pose."""
+    def outline(b: int) -> np.ndarray:
+        if outlines is not None and b in outlines:
+            return outlines[b]
         p, c = char.bones[b]
-        geo[b] = (char.parts[c], pose[p, :2], pose[c, :2])
-    pf, _, _ = part_outline(*geo[front])
-    pb, _, _ = part_outline(*geo[back])
+        return part_outline(char.parts[c], pose[p, :2], pose[c, :2])[0]
+    pf, pb = outline(front), outline(back)
     pts = polygon_crossings(pb, pf)
     if adjacent and len(pts):  # two arcs of one joint circle cross at grazing angles all along it
         pts = pts[crossing_sines(pb, pf, pts) > MIN_CROSSING_SIN]
@@ -88,13 +93,34 @@ def t_junctions(char: Character, pose: np.ndarray, front: int, back: int, rank: 
     for other in range(len(char.bones)):
         if other in (front, back) or other not in rank or rank[other] < rank[back] or not len(pts):
             continue
-        keep &= signed_distance(*geo[other], pts) > -1.0  # inside a later part: the junction is painted over
+        p, c = char.bones[other]
+        part = char.parts[c]
+        if part.shape == "capsule":
+            sd = signed_distance(part, pose[p, :2], pose[c, :2], pts)
+        else:
+            sd = _polygon_signed_distance(outline(other), pts)
+        keep &= sd > -1.0  # inside a later part: the junction is painted over
     pts = pts[keep]
     uniq: list[np.ndarray] = []
     for q in pts:  # merge duplicates from a crossing exactly at a polygon vertex
         if all(np.hypot(*(q - u)) > 2.0 for u in uniq):
             uniq.append(q)
     return np.array(uniq).reshape(-1, 2)
+
+
+def _polygon_signed_distance(poly: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(k,) signed distance (px, negative inside) of points q (k, 2) to the vertices of a closed polygon (n, 2);
+    the same rule as geometry.signed_distance for non-capsule parts, with a bounding-box shortcut."""
+    lo, hi = poly.min(0) - 2, poly.max(0) + 2
+    out = np.full(len(q), np.inf)
+    near = np.all((q >= lo) & (q <= hi), axis=1)
+    if near.any():
+        qs = q[near]
+        dist = np.min(np.linalg.norm(qs[:, None] - poly[None], axis=2), axis=1)
+        inside = np.array([cv2.pointPolygonTest(poly.astype(np.float32), (float(x), float(y)), False) > 0
+                           for x, y in qs])
+        out[near] = np.where(inside, -dist, dist)
+    return out
 
 
 def crossing_sines(p: np.ndarray, q: np.ndarray, pts: np.ndarray) -> np.ndarray:

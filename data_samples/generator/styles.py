@@ -36,7 +36,7 @@ STYLES: dict[str, Style] = {
 Palette = dict[str, tuple]
 
 GIRL = {"skin": (245, 220, 200), "top": (240, 150, 178), "trousers": (42, 42, 52), "boots": (251, 251, 248, 0.9),
-        "hair": (160, 105, 62), "skirt": (160, 200, 235)}
+        "hair": (190, 140, 95), "skirt": (160, 200, 235)}
 DINOSAUR = {"body": (118, 190, 84), "belly": (222, 234, 158), "outline": (30, 92, 42)}
 FOX = {"body": (236, 136, 52), "belly": (250, 240, 225), "tip": (250, 246, 238), "outline": (112, 62, 26)}
 BEAR = {"body": (170, 120, 80), "belly": (230, 200, 160), "outline": (80, 50, 30)}
