@@ -28,12 +28,20 @@ from data_samples.generator.occlusion import Occlusion, occlusion_pairs, occlusi
 from data_samples.generator.order import draw_order  # noqa: E402
 from data_samples.generator.poses import forward, interpolate_pose, quantize  # noqa: E402
 from data_samples.generator.shots import SHOTS, ShotSpec  # noqa: E402
-from data_samples.generator.write import FRAMES, generate, output_poses, shot_drawing, shot_look, write_shot  # noqa: E402
+from data_samples.generator.write import (  # noqa: E402
+    FRAMES,
+    contact_sheet,
+    generate,
+    output_poses,
+    shot_drawing,
+    shot_look,
+    write_shot,
+)
 
 __all__ = ["FRAMES", "SHOTS", "Character", "Occlusion", "Part", "ShotSpec", "draw_order", "forward", "generate",
            "human_pose", "humanoid", "interpolate_pose", "make_texture", "occlusion_pairs", "occlusions",
            "output_poses", "part_outline", "polygon_crossings", "quantize", "render", "scaled", "shot_drawing",
-           "shot_look", "signed_distance", "t_junctions", "tentacle", "write_shot"]
+           "shot_look", "signed_distance", "t_junctions", "tentacle", "write_shot", "contact_sheet"]
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -45,6 +53,9 @@ def main(argv: list[str] | None = None) -> None:
     for d in generate(args.out, args.only):
         data = json.loads((d / "shot.json").read_text())
         print(f"{d}: t_junctions per key {[len(t) for t in data['t_junctions']]}")
+    sheet = contact_sheet(args.out)
+    if sheet is not None:
+        print(f"{sheet}: keyframes of the issue 8 shots")
 
 
 if __name__ == "__main__":

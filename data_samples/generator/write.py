@@ -13,7 +13,7 @@ from .drawing import Drawing, Look, draw, make_look
 from .legacy import render_with_union
 from .occlusion import Occlusion, occlusion_pairs
 from .poses import interpolate_pose, quantize
-from .shots import SHOTS, ShotSpec
+from .shots import NEW_SHOTS, SHOTS, ShotSpec
 
 FORMAT = "inbetween-shot/1"
 FRAMES = 9  # output frames per shot, both keyframes included
@@ -168,3 +168,27 @@ def _dump(data: dict) -> str:
 def generate(out_root: Path, names: list[str] | None = None) -> list[Path]:
     """Write the named shots (default: all) under out_root; returns their directories."""
     return [write_shot(SHOTS[n](), out_root) for n in (names or list(SHOTS))]
+
+
+def contact_sheet(root: Path, names: list[str] | None = None, tile: int = 128) -> Path | None:
+    """previews/new_shots.png under root: key0 | key1 of each shot (default the six of issue 8), `tile` px each,
+    two shots a row, names written on the tiles; None when a shot is missing."""
+    names = names or NEW_SHOTS
+    tiles = []
+    for n in names:
+        d = root / n
+        if not (d / "shot.json").is_file():
+            return None
+        keys = json.loads((d / "shot.json").read_text())["keyframes"]
+        for k, key in enumerate(keys):
+            img = cv2.imread(str(d / key), cv2.IMREAD_COLOR)
+            img = cv2.resize(img, (tile, tile), interpolation=cv2.INTER_AREA)
+            cv2.putText(img, f"{n} {k}", (3, 11), cv2.FONT_HERSHEY_PLAIN, 0.8, (40, 40, 200), 1, cv2.LINE_AA)
+            tiles.append(img)
+    rows = [np.hstack(tiles[i:i + 4]) for i in range(0, len(tiles), 4)]
+    if len(rows) > 1 and rows[-1].shape != rows[0].shape:
+        rows[-1] = np.hstack([rows[-1], np.full((tile, rows[0].shape[1] - rows[-1].shape[1], 3), 255, np.uint8)])
+    path = root / "previews" / "new_shots.png"
+    path.parent.mkdir(exist_ok=True)
+    cv2.imwrite(str(path), np.vstack(rows), [cv2.IMWRITE_PNG_COMPRESSION, 9])
+    return path
