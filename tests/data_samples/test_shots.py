@@ -47,7 +47,8 @@ def test_shot_loads(name):
     assert len(shot.times) == 9 and shot.ground_truth is not None
 
 
-@pytest.mark.parametrize("name", ["lamp", "scan_jpeg", "hand_on_hip"])
+@pytest.mark.parametrize("name", ["lamp", "scan_jpeg"] + [pytest.param(n, marks=pytest.mark.slow) for n in
+                                                          ("watercolour", "flat_colour", "hand_on_hip", "curled_tail")])
 def test_new_shot_regenerates_identically(tmp_path, name):
     out = generate(tmp_path, [name])[0]
     ref = ROOT / name
