@@ -13,6 +13,7 @@ from ops.evaluation.baselines import blend_sequences, compare, cross_dissolve, r
 from ops.evaluation.plate import over, paper_plate
 from ops.geometry.topology import optimize_topology
 from ops.shotio.image_io import read_image, to_rgba
+from ops.shotio.load import ground_truth_files
 from ops.types import BlendPaths, ImageMatrix, OutputFrames
 
 from .stage import StageEnv, StageResult, stage_asset
@@ -50,7 +51,7 @@ def _ground_truth(env: StageEnv) -> np.ndarray | None:
     shot = env.shot
     if shot.ground_truth is None:
         return None
-    files = sorted(Path(shot.ground_truth).glob("*.png"))
+    files = ground_truth_files(shot.ground_truth)
     if len(files) != len(shot.times):
         from ops.errors import ShotError
 

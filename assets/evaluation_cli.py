@@ -16,6 +16,7 @@ import pandas as pd
 from ops import preview
 from ops.evaluation.baselines import METHODS, summarize
 from ops.shotio.image_io import read_image, to_rgba, write_image
+from ops.shotio.load import ground_truth_files
 
 
 def _markdown(df: pd.DataFrame) -> str:
@@ -68,7 +69,7 @@ def _figure_row(st, partition: str, shot_dir: Path) -> np.ndarray:
 
     shot = load_shot(shot_dir)
     mid = len(shot.times) // 2
-    gt = sorted(Path(shot.ground_truth).glob("*.png"))[mid]
+    gt = ground_truth_files(shot.ground_truth)[mid]
     ours = st.read("inbetween_frames", partition).frames[mid]
     direct = st.read("evaluation/rife_direct", partition).frames[mid]
     keys = [to_rgba(read_image(p)) for p in shot.keyframes]

@@ -16,6 +16,7 @@ from ops.shotio.interpolate import resample_poses
 from ops.types import Shot, Skeleton
 
 FORMAT = "inbetween-shot/1"
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".bmp", ".webp"}
 
 
 def _resolve(root: Path, rel, file: Path, field: str) -> Path:
@@ -214,3 +215,9 @@ def load_shot(shot_dir: str | Path) -> Shot:
     return Shot(root=str(root), keyframes=(str(p0), str(p1)), size=s0, skeleton=skeleton, times=times,
                 poses=poses, t_junctions=tj, foreground_masks=fg, occlusion_masks=occ, ground_truth=gt_path,
                 frames_given=frames)
+
+
+def ground_truth_files(folder: str | Path) -> list[Path]:
+    """Reference frames of a ground_truth folder: 0000.png, 0001.png ... (any image extension, e.g. .jpg), in order."""
+    return sorted((f for f in Path(folder).iterdir() if f.stem.isdigit() and f.suffix.lower() in IMAGE_SUFFIXES),
+                  key=lambda f: int(f.stem))

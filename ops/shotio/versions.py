@@ -5,6 +5,7 @@ import hashlib
 import json
 from pathlib import Path
 
+from ops.shotio.load import ground_truth_files
 from ops.types import Shot
 
 
@@ -37,6 +38,6 @@ def source_versions(shot: Shot) -> dict[str, str]:
         out[f"key{k}/pose"] = _digest(sk, shot.key_pose(k).round(6).tolist())
         out[f"key{k}/t_junctions"] = _digest(shot.t_junctions[k].round(6).tolist())
     out["motion"] = _digest(sk, shot.times.round(9).tolist(), shot.poses.round(6).tolist())
-    gt = sorted(Path(shot.ground_truth).glob("*.png")) if shot.ground_truth else []
+    gt = ground_truth_files(shot.ground_truth) if shot.ground_truth else []
     out["ground_truth"] = _digest(*[x for p in gt for x in (p.name, p.read_bytes())]) if gt else _digest("<none>")
     return out
