@@ -172,3 +172,14 @@ def test_bad_mode():
     refined, sk, pose, _ = capsule_scene()
     with pytest.raises(ValueError):
         build_template(refined, pose, sk, mode="triple")
+
+
+def test_zero_length_bone_as_in_animated_drawings_skeletons():
+    """root and hip at one spot (a zero-length bone): the template builds, and the rest mesh solves the key pose."""
+    refined, _, pose, pose1 = capsule_scene()
+    sk = Skeleton(joints=("root", "hips", "neck", "shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1, 2, 3, 4]))
+    pose = np.concatenate([pose[:1], pose])  # root duplicates hips
+    pose1 = np.concatenate([pose1[:1], pose1])
+    tpl = optimize_topology(refined, pose, pose1, sk)
+    assert np.allclose(tpl.handle_targets(pose), tpl.rest[tpl.handles])
+    assert count_flipped(tpl.rest, tpl.faces) == 0 and np.isfinite(tpl.energy)
