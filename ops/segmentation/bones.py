@@ -96,3 +96,26 @@ def bone_regions(
 def bone_depths(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(B,) float64 mean joint z of each bone (larger = farther)."""
     return pose[skeleton.bones, 2].mean(axis=1)
+
+
+def bone_capsules(shape: tuple[int, int], pose: np.ndarray, skeleton: Skeleton, radii) -> np.ndarray:
+    """(H, W) bool pixels within radii ((B,) or one float, pixels) of any bone segment; a zero-length bone is a disc."""
+    r = np.broadcast_to(np.asarray(radii, np.float64), (len(skeleton.bones),))
+    out = np.zeros(shape, bool)
+    for (a, b), ri in zip(_bone_ends(pose, skeleton), r):
+        rows, cols, dist = _segment_distance_box(shape, a, b, ri)
+        out[rows, cols] |= dist <= ri
+    return out
+
+
+def bone_samples(pose: np.ndarray, skeleton: Skeleton, step: float = 2.0) -> tuple[np.ndarray, np.ndarray]:
+    """Points along every bone about `step` pixels apart: (n, 2) float64 (x, y) pixels and (n,) int64 bone index."""
+    points, owner = [], []
+    for i, (a, b) in enumerate(_bone_ends(pose, skeleton)):
+        k = max(2, int(np.ceil(np.linalg.norm(b - a) / step)) + 1)
+        t = np.linspace(0.0, 1.0, k)[:, None]
+        points.append(a + t * (b - a))
+        owner.append(np.full(k, i, np.int64))
+    if not points:
+        return np.zeros((0, 2)), np.zeros(0, np.int64)
+    return np.concatenate(points), np.concatenate(owner)

@@ -1,0 +1,130 @@
+"""Foreground benchmark (§4.1): IoU against person-made masks of photographed children's drawings.
+
+Data: ../shared/realdev/animated_drawings/char1..6 (AnimatedDrawings, MIT; never copied into this repo):
+texture.png (RGBA, fully opaque: its alpha is ignored), mask.png (255 = character, as a person drew it,
+measured as it is) and char_cfg.yaml (joints with parents, loc in pixels; every joint gets z = 0).
+Compares segment_foreground with the rule it replaced (luminance, adaptive threshold, closing, hole
+filling, largest component; kept below as the baseline) and writes one overlay per character into
+benchmarks/results/masks/: grey = both agree on character, red = predicted only, blue = person only,
+yellow outline = holes, green = bones.
+Run: .venv/bin/python benchmarks/bench_masks.py [--data DIR] [--out DIR]
+Target: mean IoU >= 0.95 and every character >= 0.92.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+from scipy import ndimage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from ops.segmentation.foreground import segment_foreground
+from ops.types import Skeleton
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "realdev" / "animated_drawings"
+OUT = ROOT / "benchmarks" / "results" / "masks"
+MEAN_TARGET, WORST_TARGET = 0.95, 0.92
+
+
+def load_character(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, Skeleton]:
+    """(H, W, 3) float32 RGB drawing, (H, W) bool person mask, (J, 3) pose (z = 0) and skeleton of one character."""
+    bgr = cv2.imread(str(folder / "texture.png"), cv2.IMREAD_COLOR)  # drops the (opaque) alpha
+    drawing = bgr[..., ::-1].astype(np.float32) / 255.0
+    mask = cv2.imread(str(folder / "mask.png"), cv2.IMREAD_GRAYSCALE) > 127
+    cfg = yaml.safe_load((folder / "char_cfg.yaml").read_text())
+    joints = cfg["skeleton"]
+    index = {j["name"]: i for i, j in enumerate(joints)}
+    parents = np.array([-1 if j["parent"] is None else index[j["parent"]] for j in joints], np.int64)
+    pose = np.array([[j["loc"][0], j["loc"][1], 0.0] for j in joints], np.float64)
+    return drawing, mask, pose, Skeleton(tuple(j["name"] for j in joints), parents)
+
+
+def luminance_rule(drawing: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the rule segment_foreground replaced (luminance ink, closing, hole filling, largest component)."""
+    lum = drawing @ np.array([0.299, 0.587, 0.114], np.float32)
+    h, w = lum.shape
+    block = max(15, (min(h, w) // 8) | 1)
+    u8 = np.round(np.clip(lum, 0, 1) * 255).astype(np.uint8)
+    local = cv2.adaptiveThreshold(u8, 1, cv2.ADAPTIVE_THRESH_GAUSSIAN_C, cv2.THRESH_BINARY_INV, block, 8) > 0
+    paper = float(np.percentile(lum, 90))
+    ink = (local & (lum < paper - 0.08)) | (lum < min(paper - 0.35, 0.3))
+    r = max(3, int(round(0.01 * max(h, w))))
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
+    pad = r + 1
+    closed = cv2.morphologyEx(np.pad(ink.astype(np.uint8), pad), cv2.MORPH_CLOSE, kernel)[pad:-pad, pad:-pad] > 0
+    labels, n = ndimage.label(ndimage.binary_fill_holes(closed), structure=np.ones((3, 3), bool))
+    if n <= 1:
+        return labels > 0
+    sizes = np.bincount(labels.ravel())
+    sizes[0] = 0
+    return labels == int(np.argmax(sizes))
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two (H, W) bool masks."""
+    return float((a & b).sum() / max((a | b).sum(), 1))
+
+
+def overlay(drawing: np.ndarray, pred: np.ndarray, truth: np.ndarray, holes: np.ndarray, pose: np.ndarray,
+            skeleton: Skeleton) -> np.ndarray:
+    """(H, W, 3) uint8 BGR: agreement grey, predicted-only red, person-only blue, holes outlined yellow, bones green."""
+    img = drawing[..., ::-1].copy()
+    tint = np.zeros_like(img)
+    tint[pred & truth] = (0.55, 0.55, 0.55)
+    tint[pred & ~truth] = (0.0, 0.0, 1.0)
+    tint[~pred & truth] = (1.0, 0.3, 0.0)
+    shown = pred | truth
+    img[shown] = 0.45 * img[shown] + 0.55 * tint[shown]
+    out = np.round(img * 255).astype(np.uint8)
+    contours, _ = cv2.findContours(holes.astype(np.uint8), cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+    cv2.drawContours(out, contours, -1, (0, 220, 255), 1)
+    for p, c in skeleton.bones:
+        a, b = np.round(pose[[p, c], :2]).astype(int)
+        cv2.line(out, tuple(map(int, a)), tuple(map(int, b)), (0, 180, 0), 1)
+    return out
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--data", type=Path, default=DATA)
+    ap.add_argument("--out", type=Path, default=OUT)
+    args = ap.parse_args()
+    folders = sorted(p for p in args.data.glob("char*") if (p / "mask.png").exists())
+    if not folders:
+        print(f"no characters under {args.data}")
+        return 1
+    args.out.mkdir(parents=True, exist_ok=True)
+    print(f"{'character':<10} {'size':>9} {'IoU new':>8} {'IoU old':>8} {'s new':>6} {'s old':>6} {'holes':>5}  person-mask holes")
+    new, old = [], []
+    for folder in folders:
+        drawing, truth, pose, skeleton = load_character(folder)
+        t0 = time.perf_counter()
+        fg = segment_foreground(drawing, pose, skeleton)
+        t1 = time.perf_counter()
+        base = luminance_rule(drawing)
+        t2 = time.perf_counter()
+        new.append(iou(fg.mask, truth))
+        old.append(iou(base, truth))
+        truth_holes = int(ndimage.label(ndimage.binary_fill_holes(truth) & ~truth)[1])
+        h, w = truth.shape
+        print(f"{folder.name:<10} {w:>4}x{h:<4} {new[-1]:>8.3f} {old[-1]:>8.3f} {t1 - t0:>6.2f} {t2 - t1:>6.2f} "
+              f"{fg.n_holes:>5}  {truth_holes}")
+        cv2.imwrite(str(args.out / f"{folder.name}_new.png"), overlay(drawing, fg.mask, truth, fg.holes, pose, skeleton))
+        cv2.imwrite(str(args.out / f"{folder.name}_old.png"),
+                    overlay(drawing, base, truth, np.zeros_like(base), pose, skeleton))
+    print(f"{'mean':<10} {'':>9} {np.mean(new):>8.3f} {np.mean(old):>8.3f}")
+    print(f"{'worst':<10} {'':>9} {np.min(new):>8.3f} {np.min(old):>8.3f}")
+    ok = np.mean(new) >= MEAN_TARGET and np.min(new) >= WORST_TARGET
+    print(f"target mean >= {MEAN_TARGET}, worst >= {WORST_TARGET}: {'met' if ok else 'NOT met'}; overlays in {args.out}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
