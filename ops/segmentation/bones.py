@@ -1,6 +1,7 @@
 """Bone geometry on a keyframe: distances to bone segments, body radii and per-bone body regions (§4.1)."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from scipy import ndimage
 
@@ -99,13 +100,17 @@ def bone_depths(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
 
 
 def bone_capsules(shape: tuple[int, int], pose: np.ndarray, skeleton: Skeleton, radii) -> np.ndarray:
-    """(H, W) bool pixels within radii ((B,) or one float, pixels) of any bone segment; a zero-length bone is a disc."""
+    """(H, W) bool pixels within radii ((B,) or one float, pixels) of any bone segment; a zero-length bone is a disc.
+
+    Rasterised with OpenCV's round-capped thick lines: exact to within a pixel, far cheaper than distances.
+    """
     r = np.broadcast_to(np.asarray(radii, np.float64), (len(skeleton.bones),))
-    out = np.zeros(shape, bool)
+    out = np.zeros(shape, np.uint8)
+    shift = 4  # sub-pixel end points
     for (a, b), ri in zip(_bone_ends(pose, skeleton), r):
-        rows, cols, dist = _segment_distance_box(shape, a, b, ri)
-        out[rows, cols] |= dist <= ri
-    return out
+        pa, pb = (tuple(int(v) for v in np.round(p * (1 << shift))) for p in (a, b))
+        cv2.line(out, pa, pb, 1, thickness=max(1, int(round(2 * ri))), lineType=cv2.LINE_8, shift=shift)
+    return out > 0
 
 
 def bone_samples(pose: np.ndarray, skeleton: Skeleton, step: float = 2.0) -> tuple[np.ndarray, np.ndarray]:

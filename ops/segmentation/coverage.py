@@ -13,12 +13,25 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
 CORE_RADIUS = 4  # pixels: a stroke's core is the ink within this reach that is nearly as strong as the strongest
-CORE_SHARE = 0.85  # a pixel is core when its ΔE is at least this share of the strongest ΔE around it
-FRINGE_PX = 4  # pixels: how far the soft edge reaches from the page before it meets the core
+CORE_SHARE = 0.85  # a pixel is core (blocks the fringe) when its ΔE is this share of the strongest around it
+PEAK_SHARE = 0.97  # ... and a peak, the full ink colour a fringe pixel is unmixed towards, at this share
+FRINGE_PX = 6  # 4-connected steps: how far the soft edge reaches from the page before it meets the core
 MIN_CONTRAST = 1e-4  # squared sRGB distance below which core and paper cannot be told apart
+
+
+def nearest(seeds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) int row and column of the nearest True pixel of a non-empty (H, W) bool mask, for every pixel."""
+    _, labels = cv2.distanceTransformWithLabels(
+        (~seeds).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_5, labelType=cv2.DIST_LABEL_PIXEL
+    )
+    rows, cols = np.nonzero(seeds)
+    by_label_r = np.zeros(labels.max() + 1, np.int64)
+    by_label_c = np.zeros(labels.max() + 1, np.int64)
+    by_label_r[labels[rows, cols]] = rows
+    by_label_c[labels[rows, cols]] = cols
+    return by_label_r[labels], by_label_c[labels]
 
 
 def unmix(
@@ -35,7 +48,9 @@ def unmix(
     """
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * CORE_RADIUS + 1,) * 2)
     strongest = cv2.dilate(delta, disc)
-    core = solid & (delta > ink_delta) & (delta >= CORE_SHARE * strongest)
+    inked = solid & (delta > ink_delta)
+    core = inked & (delta >= CORE_SHARE * strongest)
+    peak = inked & (delta >= PEAK_SHARE * strongest)
 
     # the page side of the edge: grown from outside the character, never through a core pixel
     reach = ~solid
@@ -44,11 +59,12 @@ def unmix(
     grown = reach.astype(np.uint8)
     for _ in range(fringe_px):
         grown = cv2.dilate(grown, cross) & passable
+    # one pixel into the core: the last partly covered pixel of a crisp anti-aliased edge is already core
+    grown = grown | (cv2.dilate(grown, cross) & core.astype(np.uint8))
     fringe = (grown > 0) & domain
 
-    if core.any():
-        _, (ir, ic) = ndimage.distance_transform_edt(~core, return_indices=True)
-        ink = rgb[ir, ic]
+    if peak.any():
+        ink = rgb[nearest(peak)]
     else:  # nothing stands out of the page: the character is paper-coloured, its edge cannot be softened
         ink = rgb
     toward = ink - paper

@@ -103,16 +103,46 @@ def ink_threshold(noise: float) -> float:
     return max(INK_DELTA_E, NOISE_FACTOR * noise)
 
 
+def is_cutout(rgba: np.ndarray) -> bool:
+    """Whether a (H, W, 4) drawing has real transparency: a significant share of pixels not fully opaque."""
+    return float((rgba[..., 3] < 1.0 - 1.0 / 255).mean()) > TRANSPARENT_SHARE
+
+
+def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
+    """Foreground of a (H, W, C) float32 drawing whose (H, W) bool mask is given (a manual mask): its soft edge.
+
+    The mask stays exactly as given; coverage falls off only on its page-facing fringe, read from the drawing.
+    """
+    rgba = to_rgba(drawing)
+    mask = np.asarray(mask, bool)
+    holes = ndimage.binary_fill_holes(mask) & ~mask
+    if is_cutout(rgba):
+        return Foreground(
+            mask=mask.copy(), coverage=np.where(mask, rgba[..., 3], 0.0).astype(np.float32),
+            colour=rgba[..., :3].copy(), paper=np.ones_like(rgba[..., :3]), holes=holes, n_holes=_count(holes),
+        )
+    rgb = np.ascontiguousarray(rgba[..., :3])
+    lab = to_lab(rgb)
+    paper = estimate_paper(rgb, lab)
+    delta = delta_e(lab, paper.lab)
+    t_ink = ink_threshold(paper.noise)
+    coverage, colour = unmix(rgb, paper.rgb, mask, mask, delta, t_ink, PAPER_FACTOR * paper.noise)
+    return Foreground(
+        mask=mask.copy(), coverage=coverage, colour=colour, paper=paper.rgb, holes=holes, n_holes=_count(holes),
+    )
+
+
 def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> Foreground:
     """Foreground of a (H, W, C) float32 drawing (C = 1..4, straight alpha) at a (J, 3) pose, pixels."""
     rgba = to_rgba(drawing)
     shape = rgba.shape[:2]
     touch = bone_capsules(shape, pose, skeleton, BONE_TOUCH_PX)
-    if (rgba[..., 3] < 1.0 - 1.0 / 255).mean() > TRANSPARENT_SHARE:
+    if is_cutout(rgba):
         return _cutout(rgba, touch)
     rgb = np.ascontiguousarray(rgba[..., :3])
-    paper = estimate_paper(rgb)
-    delta = delta_e(to_lab(rgb), paper.lab)
+    lab = to_lab(rgb)
+    paper = estimate_paper(rgb, lab)
+    delta = delta_e(lab, paper.lab)
     smooth = delta_e(to_lab(cv2.GaussianBlur(rgb, (0, 0), BLUR_SIGMA)), paper.lab)
     t_ink = ink_threshold(paper.noise)
 

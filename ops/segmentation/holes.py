@@ -16,6 +16,7 @@ between a hand on the hip and the torso, a curled tail). The skeleton tells them
 """
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
@@ -44,9 +45,11 @@ def surrounded(piece: np.ndarray, bone_points: np.ndarray, bone_reach: np.ndarra
     dist, _ = cKDTree(pixels).query(bone_points)
     near = bone_points[dist <= bone_reach]
     # seen from the piece's deepest point, its pole of inaccessibility
-    dt = ndimage.distance_transform_edt(piece)
+    r0, c0 = rows.min(), cols.min()
+    box = np.pad(piece[r0 : rows.max() + 1, c0 : cols.max() + 1], 1).astype(np.uint8)
+    dt = cv2.distanceTransform(box, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     r, c = np.unravel_index(int(np.argmax(dt)), dt.shape)
-    return widest_gap(np.array([c, r], np.float64), near) <= MAX_GAP_DEG
+    return widest_gap(np.array([c + c0 - 1, r + r0 - 1], np.float64), near) <= MAX_GAP_DEG
 
 
 def find_holes(
@@ -63,7 +66,8 @@ def find_holes(
     exterior = ~silhouette
     ink_labels, _ = ndimage.label(ink, structure=EIGHT)
     # ink that touches the page outside is the character's outline network; floating details are no wall
-    outline_ids = np.unique(ink_labels[ndimage.binary_dilation(exterior, EIGHT) & ink])
+    touching = cv2.dilate(exterior.astype(np.uint8), EIGHT.astype(np.uint8)) > 0
+    outline_ids = np.unique(ink_labels[touching & ink])
     outline = np.isin(ink_labels, outline_ids[outline_ids > 0])
     walls = ink & outline & near_bones
 
@@ -79,8 +83,10 @@ def find_holes(
     pieces, m = ndimage.label(candidates, structure=FOUR)
     if m == 0:
         return candidates
-    inscribed = ndimage.maximum(ndimage.distance_transform_edt(candidates), pieces, np.arange(1, m + 1))
+    depth = cv2.distanceTransform(candidates.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    inscribed = np.zeros(m + 1, np.float32)
+    np.maximum.at(inscribed, pieces[candidates], depth[candidates])
     keep = np.zeros(m + 1, bool)
-    for i in np.nonzero(np.asarray(inscribed) >= min_radius)[0] + 1:
+    for i in np.nonzero(inscribed >= min_radius)[0]:
         keep[i] = surrounded(pieces == i, bone_points, bone_reach)
     return keep[pieces]

@@ -5,7 +5,7 @@ unevenly lit. Its colour is modelled as a low-order polynomial surface in linear
 multiplies reflectance, so uneven lighting of one paper colour is smooth there), fitted by iteratively
 reweighted least squares (Tukey's biweight on the CIELAB colour difference ΔE*ab) to an area-averaged
 thumbnail, which also averages away paper grain and JPEG noise. Ink, washes and fills are the outliers.
-What a quadratic cannot follow (the shadow in a photo's corner, a fold) is added as the paper cells'
+What the cubic cannot follow (the shadow in a photo's corner, a fold) is added as the paper cells'
 residual smoothed by normalised convolution; where no paper is near (inside a large fill) that
 correction fades out and the polynomial alone bridges the gap.
 """
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-THUMB_SIDE = 96  # thumbnail long side, pixels: enough samples for a quadratic, cheap, grain averaged out
+THUMB_SIDE = 96  # thumbnail long side, pixels: enough samples for a cubic, cheap, grain averaged out
 BORDER_CELLS = 2  # thumbnail cells along each edge that seed the paper colour
 SEED_DELTA_E = 20.0  # ΔE*ab from the border colour a thumbnail cell may have to enter the first fit
 TUKEY_C = 4.685  # Tukey biweight cut-off in robust standard deviations (95 % efficiency)
@@ -84,13 +84,14 @@ def _smooth_residual(residual: np.ndarray, weights: np.ndarray, sigma: float) ->
     return (num / np.maximum(w, 1e-6)[..., None] * trust).astype(np.float64)
 
 
-def estimate_paper(rgb: np.ndarray, degree: int = 2) -> Paper:
-    """Paper model of a (H, W, 3) float32 sRGB drawing: robust polynomial surface of the given degree."""
+def estimate_paper(rgb: np.ndarray, lab: np.ndarray | None = None, degree: int = 3) -> Paper:
+    """Paper model of a (H, W, 3) float32 sRGB drawing (lab: its (H, W, 3) CIELAB, if known): degree-d surface."""
     h, w = rgb.shape[:2]
     scale = min(1.0, THUMB_SIDE / max(h, w))
     tw, th = max(2, round(w * scale)), max(2, round(h * scale))
-    lin = srgb_to_linear(rgb)
-    thumb = cv2.resize(lin, (tw, th), interpolation=cv2.INTER_AREA).reshape(-1, 3).astype(np.float64)
+    # averaged before linearising: on a page (nearly one colour per cell) the order makes no difference
+    small = cv2.resize(np.ascontiguousarray(rgb, np.float32), (tw, th), interpolation=cv2.INTER_AREA)
+    thumb = srgb_to_linear(small).reshape(-1, 3).astype(np.float64)
     thumb_lab = to_lab(linear_to_srgb(thumb))
     terms = polynomial_terms(*_grid(th, tw), degree)
 
@@ -112,9 +113,10 @@ def estimate_paper(rgb: np.ndarray, degree: int = 2) -> Paper:
     correction = np.zeros((th, tw, 3))
     sigma = RESIDUAL_SIGMA * max(th, tw)
     for it in range(IRLS_ITERATIONS):
-        sw = np.sqrt(weights)[:, None]
+        weighted = terms * weights[:, None]
         target = thumb - correction.reshape(-1, 3)
-        coef = np.linalg.lstsq(terms * sw, target * sw, rcond=None)[0]
+        # normal equations: a 10 x 10 (degree 3) system, well conditioned on [-1, 1] coordinates
+        coef = np.linalg.solve(weighted.T @ terms + 1e-9 * np.eye(terms.shape[1]), weighted.T @ target)
         smooth = terms @ coef
         if it >= IRLS_ITERATIONS // 2:  # once the polynomial has settled, let the residual follow local shading
             correction = _smooth_residual((thumb - smooth).reshape(th, tw, 3), weights.reshape(th, tw), sigma)
@@ -123,11 +125,11 @@ def estimate_paper(rgb: np.ndarray, degree: int = 2) -> Paper:
         scale_r = max(1.4826 * float(np.median(r[weights > 0])), MIN_SCALE)
         weights = _tukey(r, TUKEY_C * scale_r)
 
-    x, y = _grid(h, w)
-    full_correction = cv2.resize(correction.astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR)
-    paper_rgb = linear_to_srgb((polynomial_terms(x, y, degree) @ coef).reshape(h, w, 3) + full_correction)
+    # the model is smooth on the thumbnail's scale: evaluate it there, interpolate to every pixel
+    model = (terms @ coef).reshape(th, tw, 3) + correction
+    paper_rgb = linear_to_srgb(cv2.resize(model.astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR))
     paper_lab = to_lab(paper_rgb)
-    d = delta_e(to_lab(rgb), paper_lab)
+    d = delta_e(to_lab(rgb) if lab is None else lab, paper_lab)
     # noise from the pixels the fit called paper, upsampled from the thumbnail
     inlier = cv2.resize((weights > 0).reshape(th, tw).astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
     noise = float(np.median(d[inlier])) if inlier.any() else float(np.median(d))
