@@ -81,16 +81,18 @@ def build_masks(
     """
     seg = _foreground(drawing, pose, skeleton, manual_foreground, source)
     fg = seg.mask
+    # bodies are as thick as drawn: a predicted mask's transparent rim must not thicken the bones' regions
+    body = fg if manual_foreground is not None else fg & (seg.coverage >= 0.5)
     warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
     if predicted:
-        regions, fronts, w = predict_occlusion(fg, pose, skeleton)
+        regions, fronts, w = predict_occlusion(body, pose, skeleton)
         warnings += w
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w
         scored = []
-        thick = thick_regions(fg, pose, skeleton) if kept else None
+        thick = thick_regions(body, pose, skeleton) if kept else None
         for r in kept:
             front, depth, w = manual_front_bones(r, thick, pose, skeleton)
             warnings += w
