@@ -4,7 +4,8 @@
    unevenly lit paper is no ink.
 2. Ink is any colour far enough from the local paper in CIELAB (ΔE*ab): dark lines, but also pale skin,
    yellow and light washes, which luminance alone misses. The threshold follows the page's own noise.
-3. Small gaps in outlines are closed; the enclosed insides filled.
+3. Small gaps in outlines are closed; the enclosed insides filled, and so are insides the frame cuts
+   open (a leg running off the bottom edge) where a bone runs through them.
 4. The skeleton is the prior: every component a bone touches is kept, specks no bone touches dropped.
 5. Enclosed paper that is background seen through the body becomes a hole (ops.segmentation.holes).
 6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage).
@@ -34,7 +35,8 @@ CLOSE_SHARE = 0.008  # closing radius as a share of the image's long side: seals
 BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touched by it
 WALL_SCALE, WALL_MARGIN_PX = 2.0, 4.0  # ink within WALL_SCALE x body radius + margin of a bone belongs to that body part
 MARGIN_PX = 2  # the mask reaches this far past the ink: the 2-px Douglas-Peucker mesh boundary keeps the soft edge
-TRANSPARENT_SHARE = 0.01  # RGBA with more than this share of pixels not fully opaque is a cut-out
+TRANSPARENT_SHARE = 0.01
+MIN_BONE_SAMPLES = 3  # bone samples (2 px apart) in a region the frame cuts open that make it an inside  # RGBA with more than this share of pixels not fully opaque is a cut-out
 
 
 @dataclass
@@ -79,6 +81,30 @@ def bone_touched(mask: np.ndarray, touch: np.ndarray) -> tuple[np.ndarray, list[
         sizes[0] = 0
         return labels == int(np.argmax(sizes)), ["no bone touches the drawing; kept its largest part (check the pose)"]
     return np.isin(labels, ids), []
+
+
+def fill_insides(ink: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(H, W) bool ink with its insides filled: enclosed regions, and regions the image border cuts open that
+    bones run through (points: (n, 2) float64 samples along the bones, x y pixels), except the page itself,
+    the largest region touching the border."""
+    filled = ndimage.binary_fill_holes(ink)
+    labels, n = ndimage.label(~filled)
+    if n <= 1:
+        return filled
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    border = border[border > 0]
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    page = border[np.argmax(sizes[border])]
+    # a bone runs through a region when several of its samples lie clear of the region's ink
+    clear = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    h, w = ink.shape
+    col = np.round(points[:, 0]).astype(int)
+    row = np.round(points[:, 1]).astype(int)
+    ok = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+    hit = labels[row[ok], col[ok]][clear[row[ok], col[ok]]]
+    counts = np.bincount(hit, minlength=n + 1)
+    cut_open = [int(r) for r in border if r != page and counts[r] >= MIN_BONE_SAMPLES]
+    return filled | np.isin(labels, cut_open) if cut_open else filled
 
 
 def _count(mask: np.ndarray) -> int:
@@ -148,11 +174,11 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
 
     r = close_radius(shape)
     ink = closing(smooth > t_ink, r)
-    silhouette, warnings = bone_touched(ndimage.binary_fill_holes(ink), touch)
+    points, owner = bone_samples(pose, skeleton)
+    silhouette, warnings = bone_touched(fill_insides(ink, points), touch)
     radii = bone_radii(silhouette, pose, skeleton)
     reach = WALL_SCALE * radii + WALL_MARGIN_PX
     near = bone_capsules(shape, pose, skeleton, reach)
-    points, owner = bone_samples(pose, skeleton)
     holes = find_holes(silhouette, ink, touch, near, points, reach[owner], min_radius=r)
     solid = silhouette & ~holes
 

@@ -121,6 +121,22 @@ def test_white_shirt_crossed_by_a_bone_is_not_a_hole():
     assert (fg.coverage[shirt] == 1).all()  # the white shirt is opaque character, not paper showing through
 
 
+def test_insides_cut_open_by_the_frame_are_filled_where_bones_run():
+    """Outlined legs run off the bottom edge: their insides are character, the page between them is not."""
+    shape = (160, 128)
+    p = subgrid(shape)
+    legs = [((46, 95), (43, 230)), ((82, 95), (85, 230))]
+    body = np.minimum.reduce([capsule_sdf(p, (64, 30), (64, 80), 22)] + [capsule_sdf(p, a, b, 9) for a, b in legs])
+    drawing = noisy(paint(OFF_WHITE, [(area(np.abs(body) <= 1.3), INK)]))
+    skeleton = Skeleton(("hips", "neck", "l_hip", "l_foot", "r_hip", "r_foot"), np.array([-1, 0, 0, 2, 0, 4]))
+    pose = np.array([[64, 90, 0], [64, 25, 0], [46, 95, 0], [44, 158, 0], [82, 95, 0], [84, 158, 0.0]])
+    fg = segment_foreground(drawing, pose, skeleton)
+    pixel_sdf = body.reshape(shape[0], SS, shape[1], SS).mean(axis=(1, 3))
+    assert fg.mask[pixel_sdf <= 0].all()
+    gap = (pixel_sdf > 5) & (np.abs(np.arange(128) - 64) < 10)[None, :] & (np.arange(160) > 110)[:, None]
+    assert gap.sum() > 200 and not fg.mask[pixel_sdf > 5].any()  # the page, between the legs too
+
+
 def test_pale_skinned_watercolour_on_off_white_paper_is_whole():
     """No outlines: pale skin, a pink top, black trousers and white boots, softly edged, on off-white paper."""
     shape = (200, 160)
