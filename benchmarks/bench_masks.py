@@ -10,7 +10,8 @@ yellow outline = holes, green = bones. Also printed: the PSNR of coverage * colo
 against the drawing inside the mask (the soft edge's unmixing), and with --grabcut the IoU of the mask
 refined by OpenCV GrabCut (bones sure foreground, the page far from the mask sure background), the
 refinement the issue suggested; it scores lower on every character, so the method does not use it.
-Seconds are per character after one warm-up call (OpenCV's first calls allocate).
+Seconds are per character after one warm-up call (OpenCV's first calls allocate); the last line times
+every drawing scaled to 512 px on its long side (median of 3 runs), the speed target: well under 1 s.
 Run: .venv/bin/python benchmarks/bench_masks.py [--data DIR] [--out DIR] [--grabcut]
 Target: mean IoU >= 0.95 and every character >= 0.92.
 """
@@ -155,6 +156,18 @@ def main() -> int:
     extra = (lambda v: f" {'':>6} {'':>6} {'':>5} {'':>7} {'':>12} {v:>11.3f}") if cut else (lambda v: "")
     print(f"{'mean':<10} {'':>9} {np.mean(new):>8.3f} {np.mean(old):>8.3f}" + (extra(np.mean(cut)) if cut else ""))
     print(f"{'worst':<10} {'':>9} {np.min(new):>8.3f} {np.min(old):>8.3f}" + (extra(np.min(cut)) if cut else ""))
+    at512 = []
+    for folder in folders:
+        drawing, _, pose, skeleton = load_character(folder)
+        k = 512 / max(drawing.shape[:2])
+        small = cv2.resize(drawing, None, fx=k, fy=k, interpolation=cv2.INTER_AREA)
+        runs = []
+        for _ in range(3):
+            t0 = time.perf_counter()
+            segment_foreground(small, pose * [k, k, 1], skeleton)
+            runs.append(time.perf_counter() - t0)
+        at512.append(float(np.median(runs)))
+    print("512 px: " + ", ".join(f"{f.name} {t:.2f} s" for f, t in zip(folders, at512)) + f"; max {max(at512):.2f} s")
     ok = np.mean(new) >= MEAN_TARGET and np.min(new) >= WORST_TARGET
     print(f"target mean >= {MEAN_TARGET}, worst >= {WORST_TARGET}: {'met' if ok else 'NOT met'}; overlays in {args.out}")
     return 0 if ok else 1
