@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 from scipy import ndimage
 
@@ -241,6 +242,27 @@ def test_paper_model_recovers_a_smooth_gradient():
     err = np.abs(paper.rgb - truth)
     assert err.max() < 0.02 and err.mean() < 0.004
     assert 0.5 < paper.noise < 3.0  # the page's grain, in ΔE: neither zero nor the ink
+
+
+def test_jpeg_scan_of_grainy_unevenly_lit_paper():
+    """Pencil-grey outline on grainy, vignetted paper, saved as a quality-40 JPEG: one clean silhouette."""
+    shape = (192, 256)
+    p = subgrid(shape)
+    body = capsule_sdf(p, (90, 96), (170, 96), 50)
+    ys, xs = np.mgrid[0 : shape[0], 0 : shape[1]]
+    light = 1.0 - 0.5 * (((xs - 40) / 256.0) ** 2 + ((ys - 20) / 192.0) ** 2)
+    paper = linear_to_srgb(srgb_to_linear(np.float32([0.93, 0.9, 0.82])) * light[..., None])
+    rng = np.random.default_rng(5)
+    grain = ndimage.gaussian_filter(rng.normal(0, 0.06, shape), 1.2)[..., None].astype(np.float32)
+    cov = area(np.abs(body) <= 1.2)
+    drawing = np.clip(cov[..., None] * np.float32([0.35, 0.35, 0.38]) + (1 - cov[..., None]) * paper + grain, 0, 1)
+    ok, jpeg = cv2.imencode(".jpg", np.round(drawing[..., ::-1] * 255).astype(np.uint8), [cv2.IMWRITE_JPEG_QUALITY, 40])
+    scan = cv2.imdecode(jpeg, cv2.IMREAD_COLOR)[..., ::-1].astype(np.float32) / 255
+    fg = segment_foreground(scan, np.array([[90, 96, 0], [170, 96, 0.0]]), chain(["a", "b"]))
+    truth = body.reshape(shape[0], SS, shape[1], SS).mean(axis=(1, 3)) <= 0
+    drawn = fg.coverage >= 0.5
+    assert ok and (drawn & truth).sum() / (drawn | truth).sum() > 0.95
+    assert ndimage.label(fg.mask)[1] == 1 and fg.n_holes == 0
 
 
 def anti_aliased_disc(shape=(96, 96), centre=(47.3, 50.6), radius=21.7):
