@@ -3,18 +3,20 @@
 Every pixel of a drawing on paper is modelled as the compositing equation
     drawing = coverage * colour + (1 - coverage) * paper,
 in the drawing's own encoding, the one a renderer blends in. Inside the character coverage is 1 and
-colour is the drawing itself; on the outer fringe (the anti-aliased side of an outline, the soft edge of a
-wash) the colour is taken from the nearest "core" pixel, the most saturated ink across the stroke, and
-coverage is the projection of (drawing - paper) onto (core colour - paper), the two-colour matting of
-line art. The fringe is reached from the page without crossing a core pixel, so the inner side of an
-outline and a paper-coloured inside (a white shirt) stay opaque.
+colour is the drawing itself. On the outer fringe (the anti-aliased side of an outline, the soft edge of
+a wash) coverage is the projection of (drawing - paper) onto (peak - paper), where the peak is the
+nearest pixel of full ink, the strongest across the stroke: the two-colour matting of line art. Colour
+is then solved from the equation, so coverage * colour + (1 - coverage) * paper is the drawing exactly
+wherever coverage is fractional. The fringe is reached from the page without crossing the stroke's core
+(its nearly strongest pixels), so the inner side of an outline and a paper-coloured inside (a white
+shirt) stay opaque.
 """
 from __future__ import annotations
 
 import cv2
 import numpy as np
 
-CORE_RADIUS = 4  # pixels: a stroke's core is the ink within this reach that is nearly as strong as the strongest
+CORE_RADIUS = 4  # pixels: core and peak are judged against the strongest ink within this reach
 CORE_SHARE = 0.85  # a pixel is core (blocks the fringe) when its ΔE is this share of the strongest around it
 PEAK_SHARE = 0.97  # ... and a peak, the full ink colour a fringe pixel is unmixed towards, at this share
 FRINGE_PX = 6  # 4-connected steps: how far the soft edge reaches from the page before it meets the core

@@ -8,7 +8,9 @@
    open (a leg running off the bottom edge) where a bone runs through them.
 4. The skeleton is the prior: every component a bone touches is kept, specks no bone touches dropped.
 5. Enclosed paper that is background seen through the body becomes a hole (ops.segmentation.holes).
-6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage).
+6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage);
+   the mask reaches MARGIN_PX past the ink, a rim whose coverage falls to 0, so that the mesh boundary,
+   simplified to 2 px, still holds the whole soft edge.
 
 A drawing with real transparency (an RGBA cut-out) is segmented by its alpha instead.
 """
@@ -35,8 +37,8 @@ CLOSE_SHARE = 0.008  # closing radius as a share of the image's long side: seals
 BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touched by it
 WALL_SCALE, WALL_MARGIN_PX = 2.0, 4.0  # ink within WALL_SCALE x body radius + margin of a bone belongs to that body part
 MARGIN_PX = 2  # the mask reaches this far past the ink: the 2-px Douglas-Peucker mesh boundary keeps the soft edge
-TRANSPARENT_SHARE = 0.01
-MIN_BONE_SAMPLES = 3  # bone samples (2 px apart) in a region the frame cuts open that make it an inside  # RGBA with more than this share of pixels not fully opaque is a cut-out
+TRANSPARENT_SHARE = 0.01  # RGBA with more than this share of pixels not fully opaque is a cut-out
+MIN_BONE_SAMPLES = 3  # bone samples (2 px apart) in a region the frame cuts open that make it an inside
 
 
 @dataclass
