@@ -126,9 +126,9 @@ def estimate_paper(rgb: np.ndarray, lab: np.ndarray | None = None, degree: int =
         weights = _tukey(r, TUKEY_C * scale_r)
 
     # the model is smooth on the thumbnail's scale: evaluate it there, interpolate to every pixel
-    model = (terms @ coef).reshape(th, tw, 3) + correction
-    paper_rgb = linear_to_srgb(cv2.resize(model.astype(np.float32), (w, h), interpolation=cv2.INTER_LINEAR))
-    paper_lab = to_lab(paper_rgb)
+    model = linear_to_srgb((terms @ coef).reshape(th, tw, 3) + correction)
+    paper_rgb = cv2.resize(model, (w, h), interpolation=cv2.INTER_LINEAR)
+    paper_lab = cv2.resize(to_lab(model), (w, h), interpolation=cv2.INTER_LINEAR)
     d = delta_e(to_lab(rgb) if lab is None else lab, paper_lab)
     # noise from the pixels the fit called paper, upsampled from the thumbnail
     inlier = cv2.resize((weights > 0).reshape(th, tw).astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST) > 0
