@@ -31,7 +31,8 @@ from ops.types import Skeleton
 
 INK_DELTA_E = 4.0  # ΔE*ab: the least colour difference from the paper that counts as drawn (a just-visible wash)
 NOISE_FACTOR = 3.5  # the threshold is at least this many times the page's median noise ΔE
-PAPER_FACTOR = 1.5  # a fringe pixel within this many times the median noise of the paper is paper
+PAPER_FACTOR = 1.5  # a fringe pixel within this many times the median noise of the paper is paper ...
+MIN_PAPER_DELTA_E = 1.0  # ... or within this ΔE*ab of it (a noiseless page)
 BLUR_SIGMA = 0.8  # pixels: averages paper grain and JPEG noise before the ink decision
 CLOSE_SHARE = 0.008  # closing radius as a share of the image's long side: seals pencil gaps, keeps limbs apart
 BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touched by it
@@ -126,6 +127,11 @@ def _cutout(rgba: np.ndarray, touch: np.ndarray) -> Foreground:
     )
 
 
+def paper_threshold(noise: float) -> float:
+    """ΔE*ab below which a fringe pixel is paper, for a page whose median noise is `noise` ΔE."""
+    return max(MIN_PAPER_DELTA_E, PAPER_FACTOR * noise)
+
+
 def ink_threshold(noise: float) -> float:
     """ΔE*ab above which a pixel is drawn, for a page whose median noise is `noise` ΔE."""
     return max(INK_DELTA_E, NOISE_FACTOR * noise)
@@ -153,8 +159,12 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
     lab = to_lab(rgb)
     paper = estimate_paper(rgb, lab)
     delta = delta_e(lab, paper.lab)
+    smooth = delta_e(to_lab(cv2.GaussianBlur(rgb, (0, 0), BLUR_SIGMA)), paper.lab)
     t_ink = ink_threshold(paper.noise)
-    coverage, colour = unmix(rgb, paper.rgb, mask, mask, delta, t_ink, PAPER_FACTOR * paper.noise)
+    sealed = closing(smooth > t_ink, close_radius(mask.shape)) & mask
+    coverage, colour = unmix(
+        rgb, paper.rgb, mask, mask, delta > t_ink, sealed, delta, t_ink, paper_threshold(paper.noise)
+    )
     return Foreground(
         mask=mask.copy(), coverage=coverage, colour=colour, paper=paper.rgb, holes=holes, n_holes=_count(holes),
     )
@@ -186,7 +196,7 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
 
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
     mask = cv2.dilate(solid.astype(np.uint8), disc) > 0
-    coverage, colour = unmix(rgb, paper.rgb, solid, mask, delta, t_ink, PAPER_FACTOR * paper.noise)
+    coverage, colour = unmix(rgb, paper.rgb, solid, mask, delta > t_ink, ink, delta, t_ink, paper_threshold(paper.noise))
     holes = holes & ~mask
     return Foreground(
         mask=mask, coverage=coverage, colour=colour, paper=paper.rgb, holes=holes, n_holes=_count(holes),
