@@ -25,7 +25,7 @@ from scipy import ndimage
 from ops.segmentation.bones import bone_capsules, bone_radii, bone_samples
 from ops.segmentation.coverage import unmix
 from ops.segmentation.holes import find_holes
-from ops.segmentation.paper import delta_e, estimate_paper, to_lab
+from ops.segmentation.paper import Paper, delta_e, estimate_paper, to_lab
 from ops.shotio.image_io import to_rgba
 from ops.types import Skeleton
 
@@ -127,14 +127,27 @@ def _cutout(rgba: np.ndarray, touch: np.ndarray) -> Foreground:
     )
 
 
-def paper_threshold(noise: float) -> float:
-    """ΔE*ab below which a fringe pixel is paper, for a page whose median noise is `noise` ΔE."""
-    return max(MIN_PAPER_DELTA_E, PAPER_FACTOR * noise)
+@dataclass
+class Page:
+    """How far every pixel of a drawing is from its paper, and the thresholds the page's noise sets."""
+
+    paper: Paper
+    delta: np.ndarray  # (H, W) float32 ΔE*ab of the drawing from the paper
+    smooth_delta: np.ndarray  # (H, W) float32 the same after a BLUR_SIGMA blur of the drawing (grain averaged)
+    ink_delta: float  # ΔE*ab above which a pixel is drawn
+    paper_delta: float  # ΔE*ab below which a pixel on the soft edge is paper
 
 
-def ink_threshold(noise: float) -> float:
-    """ΔE*ab above which a pixel is drawn, for a page whose median noise is `noise` ΔE."""
-    return max(INK_DELTA_E, NOISE_FACTOR * noise)
+def read_page(rgb: np.ndarray) -> Page:
+    """The paper under a (H, W, 3) float32 sRGB drawing and every pixel's colour distance from it."""
+    lab = to_lab(rgb)
+    paper = estimate_paper(rgb, lab)
+    return Page(
+        paper=paper, delta=delta_e(lab, paper.lab),
+        smooth_delta=delta_e(to_lab(cv2.GaussianBlur(rgb, (0, 0), BLUR_SIGMA)), paper.lab),
+        ink_delta=max(INK_DELTA_E, NOISE_FACTOR * paper.noise),
+        paper_delta=max(MIN_PAPER_DELTA_E, PAPER_FACTOR * paper.noise),
+    )
 
 
 def is_cutout(rgba: np.ndarray) -> bool:
@@ -156,17 +169,14 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
             colour=rgba[..., :3].copy(), paper=np.ones_like(rgba[..., :3]), holes=holes, n_holes=_count(holes),
         )
     rgb = np.ascontiguousarray(rgba[..., :3])
-    lab = to_lab(rgb)
-    paper = estimate_paper(rgb, lab)
-    delta = delta_e(lab, paper.lab)
-    smooth = delta_e(to_lab(cv2.GaussianBlur(rgb, (0, 0), BLUR_SIGMA)), paper.lab)
-    t_ink = ink_threshold(paper.noise)
-    sealed = closing(smooth > t_ink, close_radius(mask.shape)) & mask
+    page = read_page(rgb)
+    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(mask.shape)) & mask
     coverage, colour = unmix(
-        rgb, paper.rgb, mask, mask, delta > t_ink, sealed, delta, t_ink, paper_threshold(paper.noise)
+        rgb, page.paper.rgb, mask, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
+        page.paper_delta,
     )
     return Foreground(
-        mask=mask.copy(), coverage=coverage, colour=colour, paper=paper.rgb, holes=holes, n_holes=_count(holes),
+        mask=mask.copy(), coverage=coverage, colour=colour, paper=page.paper.rgb, holes=holes, n_holes=_count(holes),
     )
 
 
@@ -178,27 +188,26 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     if is_cutout(rgba):
         return _cutout(rgba, touch)
     rgb = np.ascontiguousarray(rgba[..., :3])
-    lab = to_lab(rgb)
-    paper = estimate_paper(rgb, lab)
-    delta = delta_e(lab, paper.lab)
-    smooth = delta_e(to_lab(cv2.GaussianBlur(rgb, (0, 0), BLUR_SIGMA)), paper.lab)
-    t_ink = ink_threshold(paper.noise)
+    page = read_page(rgb)
 
     r = close_radius(shape)
-    ink = closing(smooth > t_ink, r)
+    sealed = closing(page.smooth_delta > page.ink_delta, r)
     points, owner = bone_samples(pose, skeleton)
-    silhouette, warnings = bone_touched(fill_insides(ink, points), touch)
+    silhouette, warnings = bone_touched(fill_insides(sealed, points), touch)
     radii = bone_radii(silhouette, pose, skeleton)
     reach = WALL_SCALE * radii + WALL_MARGIN_PX
     near = bone_capsules(shape, pose, skeleton, reach)
-    holes = find_holes(silhouette, ink, touch, near, points, reach[owner], min_radius=r)
+    holes = find_holes(silhouette, sealed, touch, near, points, reach[owner], min_radius=r)
     solid = silhouette & ~holes
 
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
     mask = cv2.dilate(solid.astype(np.uint8), disc) > 0
-    coverage, colour = unmix(rgb, paper.rgb, solid, mask, delta > t_ink, ink, delta, t_ink, paper_threshold(paper.noise))
+    coverage, colour = unmix(
+        rgb, page.paper.rgb, solid, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
+        page.paper_delta,
+    )
     holes = holes & ~mask
     return Foreground(
-        mask=mask, coverage=coverage, colour=colour, paper=paper.rgb, holes=holes, n_holes=_count(holes),
+        mask=mask, coverage=coverage, colour=colour, paper=page.paper.rgb, holes=holes, n_holes=_count(holes),
         warnings=warnings,
     )
