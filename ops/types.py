@@ -83,6 +83,7 @@ class RefinedMasks:
     domain_holes: np.ndarray  # (h, 2) float64 one point inside each hole of the domain (enclosed paper), pixels
     coverage: np.ndarray  # (H, W) float32 character alpha (Masks.coverage)
     paper: np.ndarray  # (H, W, 3) float32 paper colour model (Masks.paper)
+    colour: np.ndarray  # (H, W, 3) float32 character colour unmixed from the paper (Masks.colour)
     warnings: list[str] = field(default_factory=list)
 
 

@@ -40,7 +40,7 @@ def capsule_scene(scale=1.0, junctions=(3, 12)):
     refined = RefinedMasks(
         foreground=fg.astype(bool), occlusion=[om.astype(bool)], front_bones=[np.array([3])],
         boundaries=[occ], junctions=[np.array(junctions, np.int64)], domain=[outer], domain_holes=np.zeros((0, 2)),
-        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32),
+        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32), colour=np.ones(fg.shape + (3,), np.float32),
     )
     return refined, sk, pose0, pose1
 
@@ -165,7 +165,7 @@ def _refined_from(domain, shape, holes=None):
     fg = np.zeros(shape, bool)
     return RefinedMasks(foreground=fg, occlusion=[], front_bones=[], boundaries=[], junctions=[], domain=domain,
                         domain_holes=np.zeros((0, 2)) if holes is None else holes,
-                        coverage=fg.astype(np.float32), paper=np.ones(shape + (3,), np.float32))
+                        coverage=fg.astype(np.float32), paper=np.ones(shape + (3,), np.float32), colour=np.ones(shape + (3,), np.float32))
 
 
 def test_bad_mode():
