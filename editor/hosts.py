@@ -20,7 +20,7 @@ class LocalOnly:
     """ASGI middleware: 403 for a foreign Host header or a foreign Origin on a state-changing request."""
 
     def __init__(self, app, port: int):
-        self.app = app
+        self.app, self.port = app, port
         self.hosts = {f"{name}:{port}" for name in LOOPBACK_NAMES}
         self.origins = {f"http://{h}" for h in self.hosts}
 
@@ -49,7 +49,3 @@ class LocalOnly:
             await self.app(scope, receive, send_with_headers)
             return
         await self.app(scope, receive, send)
-
-    @property
-    def port(self) -> str:
-        return next(iter(self.hosts)).rsplit(":", 1)[1]

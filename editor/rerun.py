@@ -60,9 +60,11 @@ class Reruns:
     """The rerun of one shot: request, status, follow. Thread-safe; one worker thread owns the subprocess."""
 
     def __init__(self, shot_dir: Path, partition: str, workdir: Path, home: Path, cwd: Path,
-                 python: str = sys.executable):
+                 command: list[str] | None = None):
+        """command: what runs the shot (default `python -m assets.cli run SHOT --out WORKDIR/out`)."""
         self.shot_dir, self.partition, self.workdir = Path(shot_dir), partition, Path(workdir)
-        self.out_dir, self.home, self.cwd, self.python = self.workdir / "out", Path(home), Path(cwd), python
+        self.out_dir, self.home, self.cwd = self.workdir / "out", Path(home), Path(cwd)
+        self.command = command or [sys.executable, "-m", "assets.cli", "run", str(self.shot_dir), "--out", str(self.out_dir)]
         self._cond = threading.Condition()
         self._status = {"state": "idle", "stages": {}, "error": None, "seq": 0, "running_stage": None,
                         "reason": None, "note": None, "started": None, "finished": None, "frames_version": None}
@@ -156,10 +158,9 @@ class Reruns:
         progress.unlink(missing_ok=True)
         env = {**os.environ, "INBETWEEN_PROGRESS": str(progress), "INBETWEEN_HOME": str(self.home),
                "PYTHONUNBUFFERED": "1"}
-        cmd = [self.python, "-m", "assets.cli", "run", str(self.shot_dir), "--out", str(self.out_dir)]
         with open(log, "wb") as logf:
             # own session: Ctrl-C on the editor does not reach it, and a stop kills its whole group
-            proc = subprocess.Popen(cmd, stdout=logf, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env,
+            proc = subprocess.Popen(self.command, stdout=logf, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env,
                                     cwd=self.cwd, start_new_session=True)
         with self._cond:
             self._private = {"pid": proc.pid, "progress": str(progress), "log": str(log)}

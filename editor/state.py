@@ -20,7 +20,7 @@ from .results import Results
 class EditorState:
     """One edited shot. Its working files live in INBETWEEN_HOME/editor/<partition>/ (rerun status, logs, output)."""
 
-    def __init__(self, shot_dir: str | Path, settings: Settings | None = None):
+    def __init__(self, shot_dir: str | Path, settings: Settings | None = None, rerun_command: list[str] | None = None):
         read_shot_json(shot_dir)  # a missing or unparsable shot.json stops the editor with the CLI's one-line error
         ensure_home()
         self.shot_dir = Path(shot_dir).resolve()
@@ -31,7 +31,7 @@ class EditorState:
         self.scratch = self.workdir / "scratch"
         self.staging = Staging()
         self.save_lock = threading.Lock()
-        self.reruns = Reruns(self.shot_dir, self.partition, self.workdir, home(), ROOT)
+        self.reruns = Reruns(self.shot_dir, self.partition, self.workdir, home(), ROOT, rerun_command)
         self.reposers = Reposers(self.store, self.partition, self.settings.mu)
         self.predictions = Predictions(self.store, self.partition)
         self.results = Results(self.store, self.partition)

@@ -1,0 +1,44 @@
+// The editor's calls to its server (/api, see the README): every answer is JSON or a PNG.
+
+export class ApiError extends Error {
+  constructor(status, data) {
+    super(data && data.error ? data.error : `HTTP ${status}`);
+    this.status = status;
+    this.field = data ? data.field : null;
+  }
+}
+
+async function answer(res) {
+  const data = res.headers.get('content-type')?.includes('json') ? await res.json() : null;
+  if (!res.ok) throw new ApiError(res.status, data);
+  return data;
+}
+
+export async function getJSON(url) {
+  return answer(await fetch(url, { cache: 'no-store' }));
+}
+
+export async function sendJSON(method, url, body) {
+  return answer(await fetch(url, { method, headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) }));
+}
+
+export async function putPNG(url, blob) {
+  return answer(await fetch(url, { method: 'PUT', headers: { 'Content-Type': 'image/png' }, body: blob }));
+}
+
+/** An image element once loaded; rejects on 404 and the like. */
+export function loadImage(url) {
+  return new Promise((resolve, reject) => {
+    const img = new Image();
+    img.onload = () => resolve(img);
+    img.onerror = () => reject(new Error(`cannot load ${url}`));
+    img.src = url;
+  });
+}
+
+/** POST JSON, receive a PNG: {bitmap, headers}. */
+export async function postForImage(url, body) {
+  const res = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+  if (!res.ok) await answer(res);
+  return { bitmap: await createImageBitmap(await res.blob()), headers: res.headers };
+}
