@@ -25,6 +25,7 @@ from ops.shotio.load import load_shot, parse_poses, parse_skeleton, read_shot_js
 
 from .layers import refined_json
 from .maskfiles import check_name, decode_mask, encode_mask
+from .repose import png_bytes
 from .shotfile import keyframe_names, referenced_files, save, validate
 from .state import EditorState
 
@@ -298,8 +299,10 @@ async def motion(request: Request) -> Response:
 
 
 async def repose(request: Request) -> Response:
-    """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1)} -> RGBA PNG
-    of keyframe k's textured template deformed into that pose; timings in X-Solve-Ms / X-Render-Ms headers."""
+    """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1), "settle":
+    bool (false while a drag goes on: a bounded solve), "format": "png" | "rgba"} -> keyframe k's textured
+    template deformed into that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers;
+    the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations."""
     ed = _ed(request)
     body = json.loads(await request.body())
 
@@ -316,10 +319,13 @@ async def repose(request: Request) -> Response:
         if len(pose) != reposer.textured.template.handle_weights.shape[1]:
             return _error("the skeleton changed since the template was built; save and rerun first", 409)
         scale = float(np.clip(body.get("scale", 1.0), 0.05, 1.0))
-        res = reposer.update(pose, float(body.get("t", 0.5)), scale)
+        res = reposer.update(pose, float(body.get("t", 0.5)), scale, settle=bool(body.get("settle", True)))
+        h, w = res.image.shape[:2]
         headers = {**NO_STORE, "X-Solve-Ms": f"{res.solve_ms:.1f}", "X-Render-Ms": f"{res.render_ms:.1f}",
-                   "X-Iterations": str(res.iterations)}
-        return Response(to_png_bytes(res.image), media_type=PNG, headers=headers)
+                   "X-Iterations": str(res.iterations), "X-Width": str(w), "X-Height": str(h)}
+        if body.get("format") == "rgba":
+            return Response(res.image.tobytes(), media_type="application/octet-stream", headers=headers)
+        return Response(png_bytes(res.image), media_type=PNG, headers=headers)
 
     return await _call(work)
 

@@ -32,7 +32,7 @@ class EditorState:
         self.staging = Staging()
         self.save_lock = threading.Lock()
         self.reruns = Reruns(self.shot_dir, self.partition, self.workdir, home(), ROOT, rerun_command)
-        self.reposers = Reposers(self.store, self.partition, self.settings.mu)
+        self.reposers = Reposers(self.store, self.partition, self.settings.mu, self.settings.grad_tol)
         self.predictions = Predictions(self.store, self.partition)
         self.results = Results(self.store, self.partition)
 

@@ -36,9 +36,11 @@ export function loadImage(url) {
   });
 }
 
-/** POST JSON, receive a PNG: {bitmap, headers}. */
-export async function postForImage(url, body) {
-  const res = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) });
+/** POST JSON, receive raw 8-bit RGBA rows (X-Width x X-Height): {bitmap, headers}. No image decoding. */
+export async function postForPixels(url, body) {
+  const res = await fetch(url, { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ ...body, format: 'rgba' }) });
   if (!res.ok) await answer(res);
-  return { bitmap: await createImageBitmap(await res.blob()), headers: res.headers };
+  const w = +res.headers.get('X-Width'), h = +res.headers.get('X-Height');
+  const pixels = new Uint8ClampedArray(await res.arrayBuffer());
+  return { bitmap: await createImageBitmap(new ImageData(pixels, w, h)), headers: res.headers };
 }

@@ -195,8 +195,10 @@ export class KeyView {
     b.dataset.field = err.field;
     b.textContent = err.message;
     const { width, height } = this.canvas.getBoundingClientRect();
-    // kept inside the pane even when the item was dragged off the keyframe
-    b.style.left = `${Math.min(Math.max(sx, 0), width - 60)}px`;
+    // kept inside the pane even when the item was dragged off the keyframe; on the side with more room
+    const x = Math.min(Math.max(sx, 0), width);
+    if (x > width / 2) b.classList.add('left');
+    b.style.left = `${x}px`;
     b.style.top = `${Math.min(Math.max(sy, 30), height - 30)}px`;
     this.bubbles.append(b);
   }

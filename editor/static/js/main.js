@@ -23,7 +23,8 @@ class App {
     $('shot-name').textContent = this.info.shot_dir;
     if (!this.info.size) throw new Error('the keyframes cannot be read: fix keyframes in shot.json');
     this.doc = new Doc(shot, this.info.size);
-    this.history = new History(this.doc, () => this.changed());
+    // an edit after a refused save clears its message: the user is fixing it (Save shows it again if not)
+    this.history = new History(this.doc, () => { if (this.errorItem) this.clearError(); this.changed(); });
     this.tool = 'select';
     this.brush = 8;
     this.overlays = new Set(OVERLAYS.filter((o) => o[2]).map((o) => o[0]));

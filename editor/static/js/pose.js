@@ -1,7 +1,7 @@
 // The pose view: live re-pose of an in-between pose on the last run's textured template, and
 // "Add as pose at t" to put the dragged pose into the motion.
 
-import { ApiError, postForImage, sendJSON } from './api.js';
+import { ApiError, postForPixels, sendJSON } from './api.js';
 import { Viewport, fitCanvas } from './viewport.js';
 
 const HIT_PX = 10;
@@ -86,18 +86,20 @@ export class PoseView {
     }));
   }
 
-  /** Ask the server for the template deformed into this.pose; at most one request in flight, the latest wins. */
+  /** Ask the server for the template deformed into this.pose; at most one request in flight, the latest wins.
+   *  While a joint is dragged the solve is bounded (the view keeps up); the update after the drag settles it. */
   async render() {
     if (!this.pose) return;
     if (this.inflight) { this.pending = true; return; }
     this.inflight = true;
     this.pending = false;
+    const settle = !this.drag;
     const [, , dpr] = fitCanvas(this.canvas);
     this._fit();
     const t0 = performance.now();
     try {
-      const { bitmap, headers } = await postForImage('/api/repose', {
-        k: this.key, t: this.t, joints: this.pose, scale: Math.min(1, this.view.zoom * dpr),
+      const { bitmap, headers } = await postForPixels('/api/repose', {
+        k: this.key, t: this.t, joints: this.pose, scale: Math.min(1, this.view.zoom * dpr), settle,
       });
       this.image = bitmap;
       this.updates += 1;
@@ -187,8 +189,10 @@ export class PoseView {
 
   _up(e) {
     if (this.canvas.hasPointerCapture(e.pointerId)) this.canvas.releasePointerCapture(e.pointerId);
+    const dragged = this.drag;
     this.drag = null;
     this.draw();
+    if (dragged) this.render();  // the settling update
   }
 
   /** Insert the shown pose into the motion at t (replacing a pose at the same t); save to rerun. */
