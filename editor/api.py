@@ -222,7 +222,7 @@ async def predicted(request: Request) -> Response:
     ed = _ed(request)
 
     def work():
-        masks, source = ed.predictions.get(load_shot(ed.shot_dir), _key(request))
+        masks, source = ed.predictions.get(ed.shot_dir, _key(request))
         return JSONResponse({"regions": len(masks.occlusion), "source": source, "warnings": masks.warnings})
 
     return await _call(work)
@@ -238,7 +238,7 @@ async def predicted_png(request: Request) -> Response:
     ed = _ed(request)
 
     def work():
-        masks, _ = ed.predictions.get(load_shot(ed.shot_dir), _key(request))
+        masks, _ = ed.predictions.get(ed.shot_dir, _key(request))
         m = _mask_layer(masks, request.path_params["layer"], request.path_params.get("i"))
         return _png(encode_mask(m) if m is not None else None, "such predicted region")
 

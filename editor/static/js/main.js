@@ -87,19 +87,21 @@ class App {
     const [H, W] = this.doc.size;
     const masks = this.doc.shot.masks || {};
     const load = async (name) => {
-      const layer = await layerFromUrl(`/api/masks/${encodeURI(name)}?v=${Date.now()}`, W, H, name);
-      this.doc.addLayer(layer);
-      this.doc.fileOwner.set(name, layer.id);
-      return layer.id;
+      let layer;
+      try {
+        layer = await layerFromUrl(`/api/masks/${encodeURI(name)}?v=${Date.now()}`, W, H, name);
+        this.doc.fileOwner.set(name, layer.id);
+      } catch {
+        // named by shot.json but unreadable: listed (empty, flagged) so it can be repainted or deleted
+        layer = new MaskLayer(W, H, name);
+        layer.missing = true;
+      }
+      return this.doc.addLayer(layer);
     };
     for (const k of [0, 1]) {
       const fg = masks.foreground?.[k];
-      try {
-        this.doc.structure[k].fg = fg ? await load(fg) : null;
-        this.doc.structure[k].occ = await Promise.all((masks.occlusion?.[k] || []).map(load));
-      } catch (e) {
-        this.showError(`a mask of key${k} cannot be loaded (${e.message}); check masks in shot.json`, null);
-      }
+      this.doc.structure[k].fg = fg ? await load(fg) : null;
+      this.doc.structure[k].occ = await Promise.all((masks.occlusion?.[k] || []).map(load));
     }
   }
 
@@ -165,7 +167,7 @@ class App {
         const layer = new MaskLayer(W, H);
         if (this.predicted[k]) layer.copyFrom(this.predicted[k].fg);
         s.fg = this.doc.addLayer(layer);
-        this.flash('foreground started from the prediction');
+        this.flash(this.predicted[k] ? 'foreground started from the prediction' : 'no prediction: foreground starts empty');
       }
       return this.doc.layer(s.fg);
     }
@@ -228,9 +230,10 @@ class App {
       rows.push(div);
     };
     const pick = (v) => () => { this.activeLayer[k] = v; this._layers(); };
-    row(FOREGROUND_COLOUR, s.fg ? `foreground · ${this.doc.layer(s.fg).name || 'new'}` : 'foreground · predicted',
+    const label = (id) => { const l = this.doc.layer(id); return `${l.name || 'new'}${l.missing ? ' (missing)' : ''}`; };
+    row(FOREGROUND_COLOUR, s.fg ? `foreground · ${label(s.fg)}` : 'foreground · predicted',
       this.activeLayer[k] === 'fg', pick('fg'), s.fg ? () => this.deleteLayer(k, 'fg') : null, `masks.foreground[${k}]`);
-    s.occ.forEach((id, i) => row(regionColour(i), `region ${i} · ${this.doc.layer(id).name || 'new'}`,
+    s.occ.forEach((id, i) => row(regionColour(i), `region ${i} · ${label(id)}`,
       this.activeLayer[k] === i, pick(i), () => this.deleteLayer(k, 'occ', i), `masks.occlusion[${k}][${i}]`));
     if (!s.occ.length) {
       const n = this.predicted[k] ? this.predicted[k].occ.length : 0;
@@ -416,6 +419,7 @@ class App {
     $('help-open').addEventListener('click', () => { $('help').hidden = false; });
     $('help-close').addEventListener('click', () => { $('help').hidden = true; });
     renderHelp($('help-table'));
+    document.querySelectorAll('select').forEach((sel) => sel.addEventListener('change', () => sel.blur()));
     window.addEventListener('keydown', (e) => this._key(e));
     window.addEventListener('keyup', (e) => { if (e.code === 'Space') this.spaceHeld = false; });
     window.addEventListener('resize', () => { this.redraw(); if (this.view === 'results') this.results.draw(); if (this.view === 'pose') this.pose.draw(); });
@@ -423,7 +427,8 @@ class App {
   }
 
   _key(e) {
-    const typing = e.target.closest && e.target.closest('input, select, textarea');
+    // text fields and menus keep their keys; checkboxes and sliders do not (arrows step frames, not sliders)
+    const typing = e.target.matches && e.target.matches('input[type=number], input[type=text], textarea, select');
     if (e.code === 'Space' && !typing) { this.spaceHeld = true; if (this.view === 'annotate') e.preventDefault(); }
     const action = actionFor(e);
     if (!action || (typing && !['save', 'escape'].includes(action))) return;

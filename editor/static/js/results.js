@@ -205,14 +205,21 @@ export class ResultsView {
     none.value = ''; none.textContent = '(choose a stage)';
     sel.append(none, ...this.app.info.stages.map((s) => { const o = document.createElement('option'); o.value = o.textContent = s; return o; }));
     sel.addEventListener('change', () => this.showPreview(sel.value));
-    img.addEventListener('error', () => { img.hidden = true; this.app.flash(`no preview of ${sel.value} yet`); });
+    img.addEventListener('error', () => {
+      img.hidden = true;
+      img.closest('.results-stage').classList.remove('with-preview');
+      this.draw();
+      this.app.flash(`no preview of ${sel.value} yet`);
+    });
   }
 
   /** The stored preview PNG of a stage, fetched when asked for. */
   showPreview(stage) {
     const img = document.getElementById('preview-img');
-    if (!stage) { img.hidden = true; return; }
+    img.closest('.results-stage').classList.toggle('with-preview', !!stage);
+    if (!stage) { img.hidden = true; this.draw(); return; }
     img.hidden = false;
+    img.onload = () => this.draw();
     img.src = `/api/previews/${stage}.png?v=${Date.now()}`;
     img.alt = `preview of ${stage}`;
   }
