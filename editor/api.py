@@ -6,6 +6,7 @@ ShotError message for bad input, so the page can show it next to the item the fi
 from __future__ import annotations
 
 import asyncio
+import hashlib
 import json
 from pathlib import Path
 
@@ -93,8 +94,14 @@ async def info(request: Request) -> Response:
     return await _call(work)
 
 
+def _etag(ed: EditorState) -> str:
+    """Version of shot.json on disk: a PUT carrying another one (If-Match) would overwrite someone else's edit."""
+    return '"' + hashlib.sha256((ed.shot_dir / "shot.json").read_bytes()).hexdigest()[:20] + '"'
+
+
 async def get_shot(request: Request) -> Response:
-    return await _call(lambda: JSONResponse(_saved(_ed(request)), headers=NO_STORE))
+    ed = _ed(request)
+    return await _call(lambda: JSONResponse(_saved(ed), headers={**NO_STORE, "ETag": _etag(ed)}))
 
 
 async def put_shot(request: Request) -> Response:
@@ -108,12 +115,16 @@ async def put_shot(request: Request) -> Response:
 
     def work():
         with ed.save_lock:
+            expected = request.headers.get("if-match")
+            if expected is not None and expected != _etag(ed):
+                return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
+                              "fix: reload the page (saving would overwrite that change)", 409)
             staged = ed.staging.snapshot()
             validate(ed.shot_dir, data, staged, ed.scratch)
             written = save(ed.shot_dir, data, staged)
             ed.staging.discard(written, only_if=staged)
             ed.reruns.request("save")  # from here on /api/status reports this save's rerun
-        return JSONResponse({"ok": True})
+            return JSONResponse({"ok": True}, headers={"ETag": _etag(ed)})
 
     return await _call(work)
 

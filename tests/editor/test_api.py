@@ -186,3 +186,20 @@ def test_static_page_and_modules_are_served_without_a_cdn(serve, small_shot):
     js = b"".join(call(s.url + f"/static/js/{m}.js")[2] for m in
                   ("main", "api", "doc", "keyview", "masks", "viewport", "results", "pose", "stages", "help"))
     assert b"http://" not in js and b"https://" not in js
+
+
+def test_put_refuses_to_overwrite_a_shot_changed_on_disk(serve, small_shot):
+    s = serve(small_shot)
+    status, headers, raw = call(s.url + "/api/shot")
+    etag, shot = headers["etag"], json.loads(raw)
+    on_disk = json.loads((small_shot / "shot.json").read_text())
+    on_disk["frames"] = 5  # someone edits the file by hand meanwhile
+    (small_shot / "shot.json").write_text(json.dumps(on_disk))
+    status, _, err = call(s.url + "/api/shot", "PUT", json.dumps(shot).encode(),
+                          {"Content-Type": "application/json", "If-Match": etag})
+    assert status == 409 and b"changed on disk" in err
+    assert json.loads((small_shot / "shot.json").read_text())["frames"] == 5
+    etag = call(s.url + "/api/shot")[1]["etag"]
+    status, headers, _ = call(s.url + "/api/shot", "PUT", json.dumps(shot).encode(),
+                              {"Content-Type": "application/json", "If-Match": etag})
+    assert status == 200 and headers["etag"] != etag

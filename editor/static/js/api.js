@@ -18,8 +18,22 @@ export async function getJSON(url) {
   return answer(await fetch(url, { cache: 'no-store' }));
 }
 
-export async function sendJSON(method, url, body) {
-  return answer(await fetch(url, { method, headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body) }));
+export async function sendJSON(method, url, body, headers = {}) {
+  return answer(await fetch(url, { method, headers: { 'Content-Type': 'application/json', ...headers }, body: JSON.stringify(body) }));
+}
+
+/** GET JSON with the response's ETag: {data, etag}. */
+export async function getVersioned(url) {
+  const res = await fetch(url, { cache: 'no-store' });
+  return { data: await answer(res), etag: res.headers.get('ETag') };
+}
+
+/** PUT JSON only if the resource is still at version etag; returns the new ETag. */
+export async function putVersioned(url, body, etag) {
+  const res = await fetch(url, { method: 'PUT', headers: { 'Content-Type': 'application/json', ...(etag ? { 'If-Match': etag } : {}) },
+    body: JSON.stringify(body) });
+  await answer(res);
+  return res.headers.get('ETag');
 }
 
 export async function putPNG(url, blob) {

@@ -1,6 +1,6 @@
 // The editor page: loads the shot, wires the three views, the rerun panel, undo/redo, saving and the keyboard.
 
-import { ApiError, getJSON, loadImage, putPNG, sendJSON } from './api.js';
+import { ApiError, getJSON, getVersioned, loadImage, putPNG, putVersioned, sendJSON } from './api.js';
 import { Doc, History } from './doc.js';
 import { actionFor, renderHelp } from './help.js';
 import { KeyView } from './keyview.js';
@@ -19,7 +19,8 @@ const $ = (id) => document.getElementById(id);
 class App {
   async boot() {
     this.info = await getJSON('/api/info');
-    const shot = await getJSON('/api/shot');
+    const { data: shot, etag } = await getVersioned('/api/shot');
+    this.etag = etag;  // a save refuses to overwrite a shot.json changed on disk since
     $('shot-name').textContent = this.info.shot_dir;
     if (!this.info.size) throw new Error('the keyframes cannot be read: fix keyframes in shot.json');
     this.doc = new Doc(shot, this.info.size);
@@ -292,7 +293,7 @@ class App {
       const uploads = this.doc.toUpload();
       for (const layer of uploads) await putPNG(`/api/masks/${encodeURI(layer.name)}`, await layer.toBlob());
       const shot = this.doc.toShot();
-      await sendJSON('PUT', '/api/shot', shot);
+      this.etag = await putVersioned('/api/shot', shot, this.etag);
       this.doc.markSaved(shot, uploads);
       this.flash('saved; rerunning');
       this.changed();
