@@ -56,7 +56,7 @@ def repose_latency(url: str, shot: dict, drags: int, moves: int) -> None:
     t, pose = motion["times"][i], np.asarray(motion["poses"][i])
     names = shot["skeleton"]["joints"]
     request(url + "/api/repose", "POST", {"k": 1, "t": t, "joints": pose.tolist(), "scale": 1.0})  # load + factorize
-    total, solve, render, iters, settle = [], [], [], [], []
+    total, solve, render, iters, settle, cpu = [], [], [], [], [], []
     rng = np.random.default_rng(0)
     for d in range(drags):
         j = names.index(JOINTS[d % len(JOINTS)]) if JOINTS[d % len(JOINTS)] in names else d % len(names)
@@ -71,6 +71,7 @@ def repose_latency(url: str, shot: dict, drags: int, moves: int) -> None:
             solve.append(float(headers["X-Solve-Ms"]))
             render.append(float(headers["X-Render-Ms"]))
             iters.append(int(headers["X-Iterations"]))
+            cpu.append(float(headers["X-Cpu-Ms"]))
         t0 = time.perf_counter()  # pointer released: the settling update
         request(url + "/api/repose", "POST", {"k": 1, "t": t, "joints": pose.tolist(), "scale": 1.0, "format": "rgba"})
         settle.append((time.perf_counter() - t0) * 1e3)
@@ -78,6 +79,8 @@ def repose_latency(url: str, shot: dict, drags: int, moves: int) -> None:
     print(f"  update (HTTP round trip)  {percentiles(total)}")
     print(f"  solve (warm-started)      {percentiles(solve)}   iterations median {np.median(iters):.0f}")
     print(f"  render                    {percentiles(render)}")
+    print(f"  CPU time of solve+render  {percentiles(cpu)}   (all threads of the server; a loaded machine "
+          "stretches the wall times above, not this)")
     print(f"  settling update at the end of each of the {drags} drags: {percentiles(settle)}")
 
 
@@ -106,6 +109,7 @@ def save_to_frames(url: str, shot_dir: Path) -> None:
 
 
 def main() -> None:
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs at the start")
     ap = argparse.ArgumentParser()
     ap.add_argument("--shot", default=str(ROOT / "data_samples" / "arm_cross"))
     ap.add_argument("--scale", type=float, default=1.0, help="resize the shot first (1.0: as is, 384 px for arm_cross)")

@@ -313,7 +313,7 @@ async def repose(request: Request) -> Response:
     """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1), "settle":
     bool (false while a drag goes on: a bounded solve), "format": "png" | "rgba"} -> keyframe k's textured
     template deformed into that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers;
-    the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations."""
+    the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
     ed = _ed(request)
     body = json.loads(await request.body())
 
@@ -333,7 +333,8 @@ async def repose(request: Request) -> Response:
         res = reposer.update(pose, float(body.get("t", 0.5)), scale, settle=bool(body.get("settle", True)))
         h, w = res.image.shape[:2]
         headers = {**NO_STORE, "X-Solve-Ms": f"{res.solve_ms:.1f}", "X-Render-Ms": f"{res.render_ms:.1f}",
-                   "X-Iterations": str(res.iterations), "X-Width": str(w), "X-Height": str(h)}
+                   "X-Iterations": str(res.iterations), "X-Cpu-Ms": f"{res.cpu_ms:.1f}", "X-Width": str(w),
+                   "X-Height": str(h)}
         if body.get("format") == "rgba":
             return Response(res.image.tobytes(), media_type="application/octet-stream", headers=headers)
         return Response(png_bytes(res.image), media_type=PNG, headers=headers)
