@@ -63,7 +63,6 @@ def bind(port: int) -> socket.socket:
 
 def serve(shot_dir: str | Path, port: int = 8765, open_browser: bool = True) -> int:
     """Serve the editor of one shot until interrupted; prints its URL first. ShotError for an unreadable shot.json."""
-    state = EditorState(shot_dir)
     try:
         sock = bind(port)
     except OSError as e:
@@ -71,6 +70,7 @@ def serve(shot_dir: str | Path, port: int = 8765, open_browser: bool = True) -> 
                         "pick another port with --port") from None
     port = sock.getsockname()[1]
     url = f"http://{HOST}:{port}/"
+    state = EditorState(shot_dir, url=url)
     config = uvicorn.Config(build_app(state, port), log_level="warning", timeout_graceful_shutdown=2, lifespan="on")
     server = uvicorn.Server(config)
     print(f"editor of {state.shot_dir} at {url}  (Ctrl-C stops it)", flush=True)

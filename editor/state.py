@@ -1,12 +1,14 @@
 """Everything the editor server holds for the one shot it edits: paths, store, reruns, caches."""
 from __future__ import annotations
 
+import fcntl
 import threading
 from pathlib import Path
 
 from assets.codeversion import ROOT
 from assets.home import ensure_home, home
 from assets.runs import register, store
+from ops.errors import ShotError
 from ops.settings import Settings
 from ops.shotio.load import read_shot_json
 
@@ -20,7 +22,8 @@ from .results import Results
 class EditorState:
     """One edited shot. Its working files live in INBETWEEN_HOME/editor/<partition>/ (rerun status, logs, output)."""
 
-    def __init__(self, shot_dir: str | Path, settings: Settings | None = None, rerun_command: list[str] | None = None):
+    def __init__(self, shot_dir: str | Path, settings: Settings | None = None, rerun_command: list[str] | None = None,
+                 url: str = ""):
         read_shot_json(shot_dir)  # a missing or unparsable shot.json stops the editor with the CLI's one-line error
         ensure_home()
         self.shot_dir = Path(shot_dir).resolve()
@@ -28,6 +31,7 @@ class EditorState:
         self.partition = register(self.shot_dir)
         self.store = store()
         self.workdir = home() / "editor" / self.partition
+        self._lock_file = self._claim(url)
         self.scratch = self.workdir / "scratch"
         self.staging = Staging()
         self.save_lock = threading.Lock()
@@ -36,8 +40,27 @@ class EditorState:
         self.predictions = Predictions(self.store, self.partition)
         self.results = Results(self.store, self.partition)
 
+    def _claim(self, url: str):
+        """One editor per shot: two would both rerun it and both keep its rerun status."""
+        self.workdir.mkdir(parents=True, exist_ok=True)
+        f = open(self.workdir / "editor.lock", "a+")
+        try:
+            fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            f.seek(0)
+            other = f.read().strip() or "another process"
+            f.close()
+            raise ShotError(self.shot_dir, "editor", f"this shot is already open in an editor at {other}",
+                            "use that one, or stop it first") from None
+        f.seek(0)
+        f.truncate()
+        f.write(url)
+        f.flush()
+        return f
+
     def start(self) -> None:
         self.reruns.start()
 
     def stop(self) -> None:
         self.reruns.stop()
+        self._lock_file.close()  # releases the claim

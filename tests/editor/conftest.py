@@ -100,7 +100,7 @@ def serve(home):
 
     def start(shot_dir: Path, *extra: str) -> InProcessServer:
         out = home_dir() / "editor" / Path(shot_dir).name / "out"
-        state = EditorState(shot_dir, rerun_command=fake_command(Path(shot_dir).name, out, *extra))
+        state = EditorState(shot_dir, rerun_command=fake_command(Path(shot_dir).name, out, *extra), url="test")
         servers.append(InProcessServer(state))
         return servers[-1]
 

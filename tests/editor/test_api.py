@@ -203,3 +203,12 @@ def test_put_refuses_to_overwrite_a_shot_changed_on_disk(serve, small_shot):
     status, headers, _ = call(s.url + "/api/shot", "PUT", json.dumps(shot).encode(),
                               {"Content-Type": "application/json", "If-Match": etag})
     assert status == 200 and headers["etag"] != etag
+
+
+def test_a_second_editor_of_the_same_shot_is_refused(serve, small_shot):
+    from editor.state import EditorState
+    from ops.errors import ShotError
+
+    serve(small_shot)
+    with pytest.raises(ShotError, match="already open in an editor at test"):
+        EditorState(small_shot)
