@@ -9,10 +9,9 @@ iterate is fold-free (the line search never crosses the injectivity bound), so t
 deformation on its way to the minimum, and the next update goes on from it; when the drag ends, a
 settling update solves to the pipeline's tolerance.
 
-The live view is drawn with the renderer's own steps (ops.appearance.render: rasterize the face ids
-back to front, map each pixel to rest space, sample the premultiplied textures) but keeps the
-premultiplied textures from one update to the next and composites the result over white, the page's
-background, instead of converting back to straight alpha: those two conversions were half of a render.
+The live view is drawn by the pipeline's renderer (ops.appearance.render.Renderer), which keeps the
+premultiplied textures from one update to the next and composites over white, the page's background,
+instead of converting back to straight alpha: those two conversions were half of a render.
 tests/editor/test_repose.py holds it equal to render() over white.
 """
 from __future__ import annotations
@@ -24,33 +23,23 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ops.appearance.render import back_map, depth_order, premultiply, rasterize_ids, to_supersampled
+from ops.appearance.render import Renderer, to_supersampled
 from ops.geometry.deform import Deformer
 from ops.types import DeformedSequence, TexturedTemplate
 from resources.store import Store
 
 LIVE_ITERATIONS = 20  # per update while dragging: 20-40 ms of solve for a 384 px template on this machine
-_REMAP = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
 
 
 class OverWhite:
-    """render() of one textured template, composited over white, with its premultiplied textures kept."""
+    """render() of one textured template, composited over white, as the page's opaque 8-bit RGBA."""
 
     def __init__(self, textured: TexturedTemplate):
-        self.textured = textured
-        self.front = premultiply(textured.texture)
-        self.back = premultiply(textured.back_texture)
+        self.renderer = Renderer(textured)  # keeps the premultiplied textures from one update to the next
 
     def __call__(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
         """X (n, 2) vertices in output pixels, pose (J, 3) -> (h, w, 4) uint8 RGBA, opaque, over white."""
-        tpl = self.textured.template
-        ids = rasterize_ids(X, tpl.faces, depth_order(self.textured, pose), shape, 1)
-        map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, 1)
-        layered = (ids >= 0) & (tpl.face_layer.take(np.maximum(ids, 0)) > 0)
-        off = np.float32(-1e4)  # as in render(): each texture sampled only where its layer is visible
-        rgba = cv2.remap(self.front, np.where(layered, off, map_x), map_y, **_REMAP)
-        rgba += cv2.remap(self.back, np.where(layered, map_x, off), map_y, **_REMAP)
-        rgb = rgba[..., :3] + (1.0 - rgba[..., 3:4])  # premultiplied over white
+        rgb = self.renderer.over_white(X, pose, shape)
         return cv2.cvtColor(np.clip(rgb * 255.0 + 0.5, 0, 255).astype(np.uint8), cv2.COLOR_RGB2RGBA)
 
 

@@ -21,6 +21,7 @@ def bar() -> TexturedTemplate:
     handles = np.array([int(np.argmin(np.linalg.norm(V - j[:2], axis=1))) for j in JOINTS])
     layer = (V[F].mean(axis=1)[:, 0] > 45).astype(np.int64)
     tpl = Template(rest=V, faces=F, face_layer=layer, handles=handles, handle_weights=np.eye(3),
+                   handle_offsets=np.zeros((3, 2)), handle_frames=np.full((3, 2), -1),
                    cut_assignment=[], energy=0.0, trials=1, mode="optimized")
     front = np.zeros((H, W, 4), np.float32)
     front[..., 0] = ((np.arange(W) // 4) % 2)[None, :] * 0.9  # red stripes
@@ -29,7 +30,8 @@ def bar() -> TexturedTemplate:
     back = np.zeros((H, W, 4), np.float32)
     back[..., 2] = 0.7
     back[10:31, 10:71, 3] = 1.0
-    return TexturedTemplate(tpl, depth_weights(tpl), np.zeros(len(F), np.int64), front, back, np.zeros((H, W), bool))
+    # the right half is hidden at the keyframe: it shows the back texture
+    return TexturedTemplate(tpl, depth_weights(tpl), layer.copy(), front, back, np.zeros((H, W), bool))
 
 
 def test_live_view_is_the_renderer_over_white():
