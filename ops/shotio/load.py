@@ -32,7 +32,8 @@ MAX_SHOT_PIXELS = 2**30  # output frames x keyframe pixels: e.g. 500 frames of 1
 MAX_BATCH_PIXELS = 2**32  # the sum of MAX_SHOT_PIXELS's measure over every shot of one batch
 COORD_MARGIN = 4  # joint x, y may lie this many image sizes outside the image (a character leaving the frame)
 MAX_DEPTH = 1e6  # |z|: only the order of depths matters
-JSON_RETRIES = 10  # a shot.json read while an editor saves it may be partial: reread while it changes
+SAVE_SECONDS = 2.0  # a shot.json changed this recently may be in the middle of a save (partial text)
+JSON_RETRY_SECONDS = 0.5  # how long a partial shot.json is reread before it is an error
 
 
 def _show(value, limit: int = 60) -> str:
@@ -86,20 +87,18 @@ def read_shot_json(shot_dir: str | Path) -> tuple[Path, dict]:
 
 
 def _parse_json(file: Path):
-    """The parsed JSON of `file`; a read that races a save (partial text) is retried while the file changes."""
-    text, problem = None, ""
-    for _ in range(JSON_RETRIES):
+    """The parsed JSON of `file`. A read that races a save sees partial text: while the file is being
+    written (changed within SAVE_SECONDS) a failed parse is retried for up to JSON_RETRY_SECONDS."""
+    start, problem = time.monotonic(), ""
+    while True:
         try:
-            size = file.stat().st_size
-            if size > MAX_SHOT_JSON_BYTES:
-                raise ShotError(file, "shot.json", f"file is {size} bytes, more than {MAX_SHOT_JSON_BYTES}",
+            st = file.stat()
+            if st.st_size > MAX_SHOT_JSON_BYTES:
+                raise ShotError(file, "shot.json", f"file is {st.st_size} bytes, more than {MAX_SHOT_JSON_BYTES}",
                                 "a shot.json is a few kB to a few MB: check that this is the right file")
             raw = file.read_bytes()
         except OSError as e:
             raise ShotError(file, "shot.json", f"cannot read ({e.strerror or e})", "check the file's permissions") from None
-        if raw == text:  # unchanged since the last failed parse: the file itself is bad
-            break
-        text = raw
         try:
             return json.loads(raw.decode("utf-8"))
         except UnicodeDecodeError as e:
@@ -108,8 +107,10 @@ def _parse_json(file: Path):
             problem = "nested too deeply"
         except ValueError as e:  # JSONDecodeError, or an integer of more than 4300 digits
             problem = " ".join(str(e).split())[:200]
+        being_saved = time.time() - st.st_mtime < SAVE_SECONDS
+        if not being_saved or time.monotonic() - start > JSON_RETRY_SECONDS:
+            raise ShotError(file, "shot.json", f"not valid JSON ({problem})", "fix the JSON syntax")
         time.sleep(0.05)
-    raise ShotError(file, "shot.json", f"not valid JSON ({problem})", "fix the JSON syntax")
 
 
 def _count(value, limit: int, file: Path, field: str, what: str, fix: str) -> None:
@@ -325,3 +326,16 @@ def ground_truth_files(folder: str | Path) -> list[Path]:
     # isdecimal, not isdigit: a file named "².png" is a digit but not a number int() reads
     return sorted((f for f in Path(folder).iterdir() if f.stem.isdecimal() and f.suffix.lower() in IMAGE_SUFFIXES),
                   key=lambda f: int(f.stem))
+
+
+def output_pixels(shot: Shot) -> int:
+    """Pixels of every output frame of a shot: frames x height x width (what MAX_SHOT_PIXELS bounds)."""
+    return len(shot.times) * shot.size[0] * shot.size[1]
+
+
+def check_batch(root: str | Path, shots: list[Shot]) -> None:
+    """Refuse a batch whose shots together ask for more than MAX_BATCH_PIXELS output pixels (ShotError)."""
+    total = sum(output_pixels(s) for s in shots)
+    if total > MAX_BATCH_PIXELS:
+        raise ShotError(root, "batch", f"{len(shots)} shots ask for {total} output pixels in all, more than "
+                        f"{MAX_BATCH_PIXELS}", "split the shots into several batches (several shot roots)")
