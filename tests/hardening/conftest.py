@@ -75,21 +75,26 @@ class Warm:
         (self.home / "storage" / self.partition / "dagster.json").unlink(missing_ok=True)
 
 
-@pytest.fixture
-def warm(warm_source, tmp_path, monkeypatch) -> Warm:
-    """A copy of the warm shot and home for this test; INBETWEEN_HOME and DAGSTER_HOME point at it."""
-    src_shot, src_home = warm_source
-    shot = tmp_path / "shots" / SHOT
+def clone_warm(src_shot: Path, src_home: Path, dst: Path) -> Warm:
+    """Copy the warm shot and home under dst, the registry pointing the shot's partition at the copy."""
+    shot = dst / "shots" / SHOT
     shutil.copytree(src_shot, shot)
-    home = tmp_path / "home"
+    home = dst / "home"
     shutil.copytree(src_home, home, ignore=shutil.ignore_patterns("locks", "logs"))
     registry = home / "shots.json"
     reg = json.loads(registry.read_text())
     partition = next(k for k, v in reg.items() if v == str(src_shot.resolve()))
     reg[partition] = str(shot.resolve())
     registry.write_text(json.dumps(reg))
-    monkeypatch.setenv("INBETWEEN_HOME", str(home))
-    monkeypatch.setenv("DAGSTER_HOME", str(home / "dagster"))
-    monkeypatch.setenv("INBETWEEN_SHOTS", str(shot.parent))
-    monkeypatch.delenv("INBETWEEN_PROGRESS", raising=False)
     return Warm(shot, home, partition)
+
+
+@pytest.fixture
+def warm(warm_source, tmp_path, monkeypatch) -> Warm:
+    """A copy of the warm shot and home for this test; INBETWEEN_HOME and DAGSTER_HOME point at it."""
+    w = clone_warm(*warm_source, tmp_path)
+    monkeypatch.setenv("INBETWEEN_HOME", str(w.home))
+    monkeypatch.setenv("DAGSTER_HOME", str(w.home / "dagster"))
+    monkeypatch.setenv("INBETWEEN_SHOTS", str(w.shot.parent))
+    monkeypatch.delenv("INBETWEEN_PROGRESS", raising=False)
+    return w

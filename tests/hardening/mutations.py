@@ -1,7 +1,9 @@
 """Hypothesis strategies that mutate a shot directory: its shot.json (tree edits and raw text damage) and its images."""
 from __future__ import annotations
 
+import copy
 import json
+import re
 from pathlib import Path
 
 from hypothesis import strategies as st
@@ -93,18 +95,21 @@ def text_damage(draw, text: str) -> bytes:
         return raw.replace(b'"hips"', b'"h\xe9ps"')
     if kind == "empty":
         return b""
-    return raw.replace(b'"frames": 5', b'"frames": ' + b"9" * 5000)
+    return re.sub(rb'"frames": [0-9]+', b'"frames": ' + b"9" * 5000, raw)
 
 
 @st.composite
-def shot_mutation(draw, images: tuple[str, ...] = ("key0.png", "key1.png", "key0_fg.png", "key0_occ0.png")):
-    """A function that mutates a written shot directory in place (1 to 3 tree edits, text damage, images)."""
+def shot_mutation(draw, base: dict | None = None,
+                  images: tuple[str, ...] = ("key0.png", "key1.png", "key0_fg.png", "key0_occ0.png"),
+                  corruptions: tuple[str, ...] = CORRUPTIONS):
+    """A function that mutates a written shot directory in place: 0 to 3 edits of its shot.json tree
+    (`base`, default the small shot of shots.py), 0 to 2 image corruptions, sometimes raw text damage."""
     from .shots import shot_json
 
-    data = shot_json()
+    data = copy.deepcopy(base) if base is not None else shot_json()
     for _ in range(draw(st.integers(0, 3))):
         data = draw(json_edit(data))
-    image_edits = [(draw(st.sampled_from(images)), draw(st.sampled_from(CORRUPTIONS)), draw(st.floats(0.01, 0.99)))
+    image_edits = [(draw(st.sampled_from(images)), draw(st.sampled_from(corruptions)), draw(st.floats(0.01, 0.99)))
                    for _ in range(draw(st.integers(0, 2)))]
     damage = draw(st.one_of(st.none(), text_damage(json.dumps(data)))) if draw(st.integers(0, 4)) == 0 else None
 

@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from ops.shotio.image_io import write_image
+from ops.shotio.image_io import read_image, to_rgba, write_image
 
 SIZE = 64
 JOINTS = ["hips", "spine", "neck", "r_shoulder", "r_elbow", "r_hand"]
@@ -94,7 +94,10 @@ def corrupt_image(shot: Path, rel: str, kind: str, frac: float = 0.5) -> str:
     """Replace image `rel` of the shot by a corrupted one; returns its new relative path (the format may change)."""
     path = shot / rel
     src = path.read_bytes() if path.is_file() else b""
-    img = drawing()
+    try:  # re-encodings keep the picture: the drawing itself when it reads, else the synthetic one
+        img = to_rgba(read_image(path))[..., :3]
+    except Exception:
+        img = drawing()
     stem = Path(rel).stem
     if kind == "truncated":
         path.write_bytes(src[: max(1, int(len(src) * frac))])
@@ -123,7 +126,7 @@ def corrupt_image(shot: Path, rel: str, kind: str, frac: float = 0.5) -> str:
     elif kind == "blank_white":
         _pil(np.ones_like(img)).save(path)
     elif kind == "transparent":
-        Image.fromarray(np.zeros((SIZE, SIZE, 4), np.uint8)).save(path)
+        Image.fromarray(np.zeros(img.shape[:2] + (4,), np.uint8)).save(path)
     elif kind == "tiny":
         _pil(img[:8, :8]).save(path)
     elif kind == "nan_exr":
@@ -133,7 +136,7 @@ def corrupt_image(shot: Path, rel: str, kind: str, frac: float = 0.5) -> str:
         bad[10, 10] = np.nan
         write_image(shot / rel, bad, dtype="float")
     elif kind == "other_size":
-        _pil(np.ones((SIZE + 16, SIZE, 3), np.float32) * 0.5).save(path)
+        _pil(np.full((img.shape[0] + 16, img.shape[1], 3), 0.5, np.float32)).save(path)
     elif kind == "text_file":
         path.write_text("not an image\n")
     elif kind == "directory":
