@@ -7,7 +7,8 @@ elsewhere (a log file, CI) a shot's line is printed once, when the shot ends. A 
 
     arm_cross      [######====>...]  10/14  rife_matrix running 12 s   warnings: key1/masks 2
 
-'#' a stage that ran, '=' one that was cached, '>' the one running, '.' one still to come.
+'#' a stage that ran, '=' one that was cached, '>' the one running, '.' one still to come,
+'x' the one that failed.
 """
 from __future__ import annotations
 
@@ -66,7 +67,10 @@ class ShotLine:
         marks = []
         for name in self.stages:
             d = self.done.get(name)
-            marks.append(">" if name == self.running else "." if d is None else "=" if d["cached"] else "#")
+            if name == self.running:
+                marks.append("x" if self.status == "failed" else ">")
+            else:
+                marks.append("." if d is None else "=" if d["cached"] else "#")
         return "".join(marks)
 
     def warnings(self) -> dict[str, int]:
@@ -75,7 +79,9 @@ class ShotLine:
     def render(self, now: float | None = None) -> str:
         """The one line of this shot."""
         n = len(self.done)
-        if self.running:
+        if self.running and self.status == "failed":
+            detail = f"failed in {self.running}"
+        elif self.running:
             detail = f"{self.running} running {(now or time.time()) - self.since:.0f} s"
         elif self.status in ("bad input", "failed") and not self.done:
             detail = self.status
@@ -146,8 +152,8 @@ class Board:
             if report is not None:
                 stages = report["stages"]
                 line.finish(stages, {n: s.get("warnings", 0) for n, s in stages.items()}, status)
-            else:
-                line.running, line.status = None, status
+            else:  # the stage that was running is where it failed
+                line.status = status
         self.ended(partition)
         return line
 

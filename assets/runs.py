@@ -370,7 +370,7 @@ class Session:
                 text = lines[0] if lines else "failed"
                 raise StageFailed(shot, stage, text if text.startswith(cause.cls_name) else f"{cause.cls_name}: {text}",
                                   log_path, err.to_string())
-            raise StageFailed(shot, "run", "the Dagster run failed", log_path)
+            raise StageFailed(shot, "run", _run_failure_cause(result), log_path)
         return result
 
 
@@ -388,6 +388,18 @@ def open_instance():
         if _database_locked(e):
             raise
         raise HomeDamaged(dagster_home(), e) from e
+
+
+def _run_failure_cause(result) -> str:
+    """The first error a failed run reports outside any step (a resource that did not start, the engine)."""
+    for ev in result.all_events:
+        err = getattr(ev.event_specific_data, "error", None)
+        if err is not None:
+            while err.cause is not None:
+                err = err.cause
+            lines = err.message.strip().splitlines()
+            return f"{err.cls_name}: {lines[0] if lines else 'failed'}"
+    return "the Dagster run failed"
 
 
 # ---------------------------------------------------------------- front-end calls

@@ -125,3 +125,36 @@ def test_database_is_locked_is_retried_and_never_shown(warm, tmp_path, monkeypat
     assert report["frames"] == 3 and all(s["cached"] for s in report["stages"].values())
     captured = capfd.readouterr()
     assert "locked" not in captured.out + captured.err
+
+
+def _children(pid: int) -> list[int]:
+    """Process ids whose parent is pid (from /proc)."""
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        if int(fields[1]) == pid:
+            out.append(int(stat.parent.name))
+    return out
+
+
+def test_a_batch_worker_that_dies_is_one_failed_shot(warm, tmp_path):
+    import os
+    import signal
+
+    _nudge_t_junction(warm.shot)
+    events = tmp_path / "progress.jsonl"
+    env = {**env_for(warm.home), "INBETWEEN_PROGRESS": str(events)}
+    proc = _start(warm.home, "batch", str(warm.shot.parent), "--out", str(tmp_path / "out"), env=env)
+    _wait_for(lambda: events.exists() and '"event": "start"' in events.read_text(), 600, proc)
+    workers = [p for p in _children(proc.pid) if b"spawn_main" in Path(f"/proc/{p}/cmdline").read_bytes()]
+    assert workers
+    for pid in workers:  # killed as the OOM killer would
+        os.kill(pid, signal.SIGKILL)
+    out, err = proc.communicate(timeout=600)
+    assert proc.returncode == 1 and "Traceback" not in err, err
+    errors = [line for line in err.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "worker process died" in errors[0] and "fix: rerun" in errors[0]
+    assert out.splitlines()[2].split()[-1] == "failed"

@@ -39,13 +39,14 @@ def test_board_redraws_in_place_on_a_terminal_and_prints_once_elsewhere():
         for name in ("one", "two"):
             board.line(name, name)
         board.feed({"partition": "one", "stage": "a/masks", "event": "done", "cached": False, "seconds": 1})
+        board.feed({"partition": "one", "stage": "a/template", "event": "start", "time": 0.0})
         board.draw()
         board.draw()
         board.finish("one", "one", None, "failed")
         board.say("waiting: another run holds the lock")
     assert "\x1b[2F" in tty.getvalue()  # moved up over its two lines before redrawing them
     assert log.getvalue().splitlines() == [
-        "one              [#...]  1/4  failed: 1 ran, 0 cached, 1.0 s",
+        "one              [#x..]  1/4  failed in a/template",
         "waiting: another run holds the lock",
     ]
 

@@ -92,11 +92,10 @@ def test_full_disk_during_a_write_keeps_the_previous_output(tmp_path, monkeypatc
     path = tmp_path / "stage"
     old = _frames(0)
     write_value(path, old, provenance={"parents": {"a": "1"}})
-    monkeypatch.setattr(store_module.np, "savez", _DiskFull())
-    with pytest.raises(OSError) as e:
+    with monkeypatch.context() as m, pytest.raises(OSError) as e:
+        m.setattr(store_module.np, "savez", _DiskFull())
         write_value(path, _frames(1), provenance={"parents": {"a": "2"}})
     assert e.value.errno == errno.ENOSPC
-    monkeypatch.undo()
     assert stored_hash(path) == content_hash(old)
     assert stored_provenance(path)[1] == {"parents": {"a": "1"}}
     np.testing.assert_array_equal(read_value(path).frames, old.frames)

@@ -20,7 +20,7 @@ NOISE = ("Traceback", "DEBUG", "Warning", "warnings.warn", "dagster - ")
 
 def progress_line(line: str) -> bool:
     """A shot's progress line: its name, the bar over the 14 stages, the count."""
-    return re.match(rf"^{SHOT}\s+\[[#=>.]{{14}}\]\s+\d+/14  ", line) is not None
+    return re.match(rf"^{SHOT}\s+\[[#=>.x]{{14}}\]\s+\d+/14  ", line) is not None
 
 
 def assert_quiet(done, allowed=progress_line) -> None:
