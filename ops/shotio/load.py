@@ -106,7 +106,8 @@ def _parse_json(file: Path):
         except RecursionError:
             problem = "nested too deeply"
         except ValueError as e:  # JSONDecodeError, or an integer of more than 4300 digits
-            problem = " ".join(str(e).split())[:200]
+            digits = "integer string conversion" in str(e)
+            problem = "a number has more than 4300 digits" if digits else " ".join(str(e).split())[:200]
         being_saved = time.time() - st.st_mtime < SAVE_SECONDS
         if not being_saved or time.monotonic() - start > JSON_RETRY_SECONDS:
             raise ShotError(file, "shot.json", f"not valid JSON ({problem})", "fix the JSON syntax")
