@@ -606,11 +606,11 @@ def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Set
         for f in as_completed(futures):
             try:
                 shot_dir, report, error = f.result()
-            except BrokenProcessPool as e:  # a worker died (killed, out of memory): its shot failed, not the batch
+            except BrokenProcessPool:  # a worker died (killed, out of memory): its shot failed, not the batch
                 d = futures[f]
                 shot_dir, report = str(d), None
-                error = ShotFailure(f"{d}: run: the worker process died ({e or 'killed'}); fix: rerun the batch "
-                                    "(stored stages are kept); if it dies again, run this shot alone with "
+                error = ShotFailure(f"{d}: run: the worker process died (killed, or out of memory); fix: rerun the "
+                                    "batch (stored stages are kept); if it dies again, run this shot alone with "
                                     "`inbetween run`", d.name, False)
             if error:
                 errors.append(error)

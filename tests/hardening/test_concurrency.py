@@ -101,25 +101,35 @@ def test_batch_while_the_shot_is_edited_and_saved(warm, tmp_path):
 
 
 def test_database_is_locked_is_retried_and_never_shown(warm, tmp_path, monkeypatch, capfd):
+    db = sqlite3.connect(warm.home / "dagster" / "history" / "runs.db", timeout=30, isolation_level=None,
+                         check_same_thread=False)
+    released = threading.Event()
+
+    def release() -> None:
+        if not released.is_set():
+            released.set()
+            db.execute("COMMIT")
+
     seen = []
     real = runs._database_locked
 
-    def spy(e):
+    def spy(e):  # the run hit the lock: let the other writer finish a moment later
         locked = real(e)
         seen.append(locked)
+        if locked:
+            threading.Timer(0.5, release).start()
         return locked
 
     monkeypatch.setattr(runs, "_database_locked", spy)
     warm.forget_dagster_record()  # so the run writes to the Dagster instance
-    db = sqlite3.connect(warm.home / "dagster" / "history" / "runs.db", timeout=30, isolation_level=None,
-                         check_same_thread=False)
     db.execute("BEGIN EXCLUSIVE")  # another process writing the instance, for longer than SQLite waits (5 s)
-    release = threading.Timer(8.0, lambda: db.execute("COMMIT"))
-    release.start()
+    safety = threading.Timer(300.0, release)
+    safety.start()
     try:
         report = run_shot(warm.shot, tmp_path / "out")
     finally:
-        release.join()
+        safety.cancel()
+        release()
         db.close()
     assert any(seen), "the lock was never hit: the test did not test the retry"
     assert report["frames"] == 3 and all(s["cached"] for s in report["stages"].values())

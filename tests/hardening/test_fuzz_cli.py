@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from .conftest import SHOT, cli, clone_warm
@@ -35,6 +35,7 @@ def test_cli_exits_0_or_2_with_one_error_line(warm_source, data):
         w = clone_warm(*warm_source, Path(tmp))
         mutate(w.shot)
         done = cli(w.home, "run", str(w.shot), "--out", str(Path(tmp) / "out"), timeout=HANG_SECONDS)
+        event(f"exit {done.returncode}")
         assert "Traceback" not in done.stdout + done.stderr, mutate.description
         errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
         others = [line for line in done.stderr.splitlines() if not line.startswith("error:")]
