@@ -122,5 +122,5 @@ def shot_mutation(draw, base: dict | None = None,
                     d = with_image(d, rel, new)
         (shot / "shot.json").write_bytes(damage if damage is not None else json.dumps(d).encode())
 
-    apply.description = f"edits={data!r:.300} images={image_edits} damage={damage!r:.80}"
+    apply.description = f"shot.json={json.dumps(data)[:2000]} images={image_edits} damage={damage!r:.80}"
     return apply

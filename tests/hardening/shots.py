@@ -133,7 +133,7 @@ def corrupt_image(shot: Path, rel: str, kind: str, frac: float = 0.5) -> str:
         path.unlink(missing_ok=True)
         rel = f"{stem}.exr"
         bad = img.copy()
-        bad[10, 10] = np.nan
+        bad[bad.shape[0] // 2, bad.shape[1] // 2] = np.nan  # the image may already be a tiny one
         write_image(shot / rel, bad, dtype="float")
     elif kind == "other_size":
         _pil(np.full((img.shape[0] + 16, img.shape[1], 3), 0.5, np.float32)).save(path)

@@ -13,7 +13,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, Phase, event, given, note, settings
 from hypothesis import strategies as st
 
 from .conftest import SHOT, cli, clone_warm
@@ -24,7 +24,10 @@ pytestmark = pytest.mark.slow
 HANG_SECONDS = 900  # a run of the tiny shot takes a minute or two on two busy cores
 
 
+# derandomized: the same 8 cases in every CI run; no shrinking: a case costs seconds to minutes, and the
+# failing case is printed whole (its shot.json edits and image corruptions) with a reproduce blob
 @settings(max_examples=8, deadline=None, database=None, derandomize=True, print_blob=True,
+          phases=[Phase.explicit, Phase.generate],
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
                                  HealthCheck.data_too_large])
 @given(data=st.data())
@@ -34,6 +37,7 @@ def test_cli_exits_0_or_2_with_one_error_line(warm_source, data):
     with tempfile.TemporaryDirectory() as tmp:
         w = clone_warm(*warm_source, Path(tmp))
         mutate(w.shot)
+        note(mutate.description)
         done = cli(w.home, "run", str(w.shot), "--out", str(Path(tmp) / "out"), timeout=HANG_SECONDS)
         event(f"exit {done.returncode}")
         assert "Traceback" not in done.stdout + done.stderr, mutate.description

@@ -12,6 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, event, given, settings
 
 from ops.errors import ShotError
@@ -20,6 +21,8 @@ from ops.shotio.versions import source_versions
 
 from .mutations import shot_mutation
 from .shots import write_shot
+
+pytestmark = pytest.mark.slow  # 300 cases: under a minute, but the fast tier keeps the table of bad inputs only
 
 SECONDS_PER_CASE = 10.0  # far above a real load (~20 ms): only a hang or a count without bound reaches it
 
