@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import sys
 import threading
 import time
@@ -139,7 +140,8 @@ class Board:
             return
         with self._lock:
             now = time.time()
-            text = [line.render(now) for line in self.lines.values()]
+            width = shutil.get_terminal_size((120, 24)).columns - 1  # a wrapped line would break the redraw
+            text = [line.render(now)[:width] for line in self.lines.values()]
             up = f"\x1b[{self._drawn}F" if self._drawn else ""
             self.stream.write(up + "".join(f"\x1b[2K{t}\n" for t in text))
             self.stream.flush()
