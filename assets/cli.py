@@ -2,7 +2,14 @@
 
 The work is done by assets/runs.py, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
-(shot, stage, cause, and where the full log is) and exits 1.
+(shot, stage, cause, and where the full log is) and exits 1; so does any other
+error (its trace goes to a log under INBETWEEN_HOME/logs/, never to the terminal).
+
+Quiet by default: stderr holds one progress line per shot (assets/console.py)
+and the error lines, nothing else. Dagster's event log goes to
+INBETWEEN_HOME/logs/*.log, Python warnings to INBETWEEN_HOME/logs/warnings.log;
+--verbose shows both live. Results (where the frames are, the batch table) go
+to stdout.
 """
 from __future__ import annotations
 
@@ -11,6 +18,7 @@ import json
 import os
 import sys
 import time
+import traceback
 from pathlib import Path
 
 from ops.errors import ShotError
@@ -41,7 +49,7 @@ def _parser() -> argparse.ArgumentParser:
     b = sub.add_parser("batch", help="every shot under a root, in parallel")
     b.add_argument("shots_root")
     b.add_argument("--out", required=True)
-    b.add_argument("--workers", type=int, default=2)
+    b.add_argument("--workers", type=int, default=2, choices=range(1, 65), metavar="{1..64}")
     method_flags(b)
     s = sub.add_parser("status", help="which stages of a shot the next run executes, and why")
     s.add_argument("shot_dir")
@@ -64,13 +72,31 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _board(args):
+    from .console import Board
+    from .graph import STAGES
+
+    # with --verbose Dagster's log scrolls on stderr: lines redrawn in place would fight it
+    return Board(STAGES, live=False if getattr(args, "verbose", False) else None)
+
+
 def _run(args) -> int:
     from .runs import run_shot
 
-    def waiting():
-        print(f"waiting: another run of {args.shot_dir} holds its lock", file=sys.stderr, flush=True)
+    board = _board(args)
+    name = Path(args.shot_dir).resolve().name
 
-    report = run_shot(args.shot_dir, args.out, _settings(args), on_wait=waiting, verbose=args.verbose)
+    def waiting():
+        board.say(f"waiting: another run of {args.shot_dir} holds its lock; it starts when that one ends")
+
+    with board.follow():
+        try:
+            report = run_shot(args.shot_dir, args.out, _settings(args), on_wait=waiting, verbose=args.verbose)
+        except Exception as e:
+            for partition in list(board.lines):
+                board.finish(partition, name, None, "bad input" if isinstance(e, ShotError) else "failed")
+            raise
+    board.finish(report["partition"], name, report, "ok")
     ran = [n for n, s in report["stages"].items() if not s["cached"]]
     print(f"{report['frames']} frames -> {Path(args.out) / 'frames'}  "
           f"({len(ran)} stages executed, {report['seconds_total']:.1f} s)")
@@ -78,15 +104,39 @@ def _run(args) -> int:
 
 
 def _batch(args) -> int:
-    from .runs import batch
+    from .console import table
+    from .runs import batch, register
+
+    board = _board(args)
+    root = Path(args.shots_root)
+    if not root.is_dir():
+        raise ShotError(root, "SHOTS_ROOT", "is not a directory", "give the folder whose sub-folders are shots")
+    partitions = {}  # shot name -> partition
+    for d in sorted(root.iterdir()):
+        if (d / "shot.json").is_file():
+            partitions[d.name] = register(d)
+            board.line(partitions[d.name], d.name)
+    rows: dict[str, dict] = {}
+
+    def done(name: str, r: dict | None, error) -> None:
+        status = "ok" if r is not None else "bad input" if getattr(error, "bad_input", False) else "failed"
+        board.finish(partitions.get(name, name), name, r, status)
+        rows[name] = {"shot": name, "seconds": "-", "status": status}
+        if r is not None:
+            stages = r["stages"].values()
+            rows[name].update(frames=r["frames"], seconds=r["seconds_total"],
+                              cached=f"{sum(s['cached'] for s in stages)}/{len(stages)}",
+                              warnings=sum(s.get("warnings", 0) for s in stages))
 
     t0 = time.perf_counter()
-    reports, errors = batch(args.shots_root, args.out, args.workers, _settings(args))
-    for name, r in sorted(reports.items()):
-        print(f"{name}: {r['frames']} frames, {r['seconds_total']:.1f} s")
+    with board.follow():
+        reports, errors = batch(root, args.out, args.workers, _settings(args), verbose=args.verbose, on_done=done)
+    print(table([rows[n] for n in sorted(rows)]))
     for err in errors:
         print(f"error: {err}", file=sys.stderr)
     print(f"{len(reports)} shots done, {len(errors)} failed, {time.perf_counter() - t0:.1f} s")
+    if any(not getattr(e, "bad_input", True) for e in errors):
+        return EXIT_FAILED
     return EXIT_BAD_INPUT if errors else 0
 
 
@@ -137,20 +187,56 @@ def _edit(args) -> int:
 COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui, "edit": _edit}
 
 
+def _crash_log(trace: str) -> Path | None:
+    """Write an unexpected error's trace under INBETWEEN_HOME/logs/; its path, or None if that fails too."""
+    from .home import home
+
+    try:
+        path = home() / "logs" / f"{time.strftime('%Y%m%d-%H%M%S')}-error-{os.getpid()}.log"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(trace)
+        return path
+    except OSError:
+        return None
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
-    from .runs import StageFailed
+    from .runs import HomeDamaged, StageFailed, warnings_to_log
 
+    if not getattr(args, "verbose", False):
+        warnings_to_log()
     try:
         return COMMANDS[args.command](args)
     except ShotError as e:
-        print(f"error: {e}", file=sys.stderr)
+        print(f"error: {_one_line(e)}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except StageFailed as e:
         if getattr(args, "debug", False) and e.trace:
             print(e.trace, file=sys.stderr)
         where = f" (full log: {e.log})" if e.log else ""
-        print(f"error: {e}{where}", file=sys.stderr)
+        print(f"error: {_one_line(e)}{where}", file=sys.stderr)
+        return EXIT_FAILED
+    except HomeDamaged as e:
+        print(f"error: {_one_line(e)}", file=sys.stderr)
+        return EXIT_FAILED
+    except KeyboardInterrupt:
+        print("error: interrupted; stages already stored are kept, a rerun continues from them", file=sys.stderr)
+        return 130
+    except Exception as e:  # anything else: one line here, the trace in a log
+        trace = traceback.format_exc()
+        if getattr(args, "debug", False):
+            print(trace, file=sys.stderr, end="")
+        log = _crash_log(trace)
+        where = f" (full trace: {log})" if log else ""
+        fix = ("free disk space, then rerun" if isinstance(e, OSError) and e.errno == 28
+               else "rerun with --debug for the full trace")
+        print(f"error: {args.command}: {_one_line(f'{type(e).__name__}: {e}')[:300]}; fix: {fix}{where}",
+              file=sys.stderr)
         return EXIT_FAILED
 
 

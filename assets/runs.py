@@ -11,18 +11,28 @@
 - `batch`, `status`, `evaluate_stages`.
 
 Front ends only parse, call and print.
+
+Hardening (issue 10): a shot saved while it runs is run again on what was saved
+(`_settle`); SQLite's "database is locked" from another process writing the
+Dagster instance is retried, never shown (`retry_database_locked`); a deleted
+Dagster home gets a fresh instance even in a long-lived process; a damaged one
+is one line with its fix (`HomeDamaged`); a batch worker that dies is one failed
+shot, not a traceback; Python warnings go to INBETWEEN_HOME/logs/warnings.log.
 """
 from __future__ import annotations
 
 import fcntl
+import functools
 import json
 import os
+import random
 import subprocess
 import sys
 import time
 import warnings
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +41,7 @@ import numpy as np
 
 from ops.errors import ShotError
 from ops.settings import Settings
-from ops.shotio.load import load_shot
+from ops.shotio.load import check_batch, load_shot
 from ops.shotio.versions import source_versions
 from ops.types import Shot
 from resources.registry import register_shot
@@ -71,8 +81,39 @@ class StageFailed(RuntimeError):
 
     def __init__(self, shot: str, stage: str, cause: str, log: Path | None, trace: str = ""):
         self.shot, self.stage, self.cause, self.log, self.trace = shot, stage, cause, log, trace
-        fix = FIXES.get(stage.split("/")[-1], GENERIC_FIX)
+        cause = " ".join(cause.split())  # one line, whatever the exception's message held
+        fix = DISK_FULL_FIX if "No space left on device" in cause else FIXES.get(stage.split("/")[-1], GENERIC_FIX)
         super().__init__(f"{shot}: {stage}: {cause}; fix: {fix}")
+
+
+DISK_FULL_FIX = "free disk space under INBETWEEN_HOME and the output folder, then rerun (stored stages are kept)"
+
+
+class HomeDamaged(RuntimeError):
+    """The Dagster home cannot be opened (a damaged dagster.yaml or SQLite file): one line with its fix."""
+
+    def __init__(self, path: Path, cause: BaseException):
+        self.path = path
+        text = " ".join(str(cause).split())[:200]
+        super().__init__(f"{path}: the Dagster instance cannot be opened ({type(cause).__name__}: {text}); "
+                         f"fix: remove {path} (stage outputs stay in INBETWEEN_HOME/storage; only the UI's "
+                         f"run history is lost) and rerun")
+
+
+class ShotFailure(str):
+    """One failed shot of a batch: its one-line message (a str, as batch() always returned) plus the shot's
+    name and whether its input was bad (exit 2) or a stage failed (exit 1)."""
+
+    shot: str
+    bad_input: bool
+
+    def __new__(cls, message: str, shot: str, bad_input: bool):
+        self = super().__new__(cls, message)
+        self.shot, self.bad_input = shot, bad_input
+        return self
+
+    def __reduce__(self):  # crosses the process pool's pipe
+        return ShotFailure, (str(self), self.shot, self.bad_input)
 
 
 # ---------------------------------------------------------------- planning (no Dagster)
@@ -208,6 +249,60 @@ def _quiet_dagster_warnings() -> None:
             warnings.filterwarnings("ignore", category=category)
 
 
+def warnings_to_log() -> Path:
+    """Send every Python warning of this process to INBETWEEN_HOME/logs/warnings.log instead of stderr.
+
+    Dagster's Beta/Preview warnings, a library's DeprecationWarning, numpy's RuntimeWarning on odd input:
+    none is the user's business on the terminal (--verbose leaves them there).
+    """
+    path = home() / "logs" / "warnings.log"
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with open(path, "a") as f:
+                f.write(f"{time.strftime('%Y-%m-%d %H:%M:%S')} {os.getpid()} "
+                        f"{warnings.formatwarning(message, category, filename, lineno, line).rstrip()}\n")
+        except OSError:
+            pass  # a warning never fails a run
+
+    warnings.showwarning = show
+    return path
+
+
+def _database_locked(e: BaseException | None) -> bool:
+    """True when SQLite's "database is locked" is anywhere in the exception, its chain or its stage's trace."""
+    seen = 0
+    while e is not None and seen < 20:
+        if "database is locked" in f"{e} {getattr(e, 'trace', '')}":
+            return True
+        e, seen = e.__cause__ or e.__context__, seen + 1
+    return False
+
+
+LOCKED_ATTEMPTS = 6
+
+
+def retry_database_locked(fn):
+    """Retry `fn` when another process holds the SQLite Dagster instance locked longer than SQLite waits.
+
+    With backoff (about 0.5, 1, 2, 4, 8 s, jittered so two waiting processes do not collide again).
+    Safe to repeat: stages stored by a failed attempt are fresh on the next one, and are not run again.
+    """
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        for attempt in range(LOCKED_ATTEMPTS):
+            try:
+                return fn(*args, **kwargs)
+            except Exception as e:
+                if attempt == LOCKED_ATTEMPTS - 1 or not _database_locked(e):
+                    raise
+                time.sleep(min(8.0, 0.5 * 2**attempt) * (0.5 + random.random()))
+        raise AssertionError("unreachable")
+
+    return wrapper
+
+
 class Session:
     """The Dagster instance and the Definitions, built once per process per (settings, home)."""
 
@@ -224,11 +319,14 @@ class Session:
         self.settings = settings
         self.defs = build_definitions(settings)
         self.job = self.defs.resolve_implicit_global_asset_job_def()
-        self.instance = dg.DagsterInstance.get()
+        self.instance = open_instance()
 
     @classmethod
     def get(cls, settings: Settings) -> Session:
-        key = (settings, home(), os.environ.get("DAGSTER_HOME"), os.environ.get("INBETWEEN_SHOTS"))
+        ensure_home()
+        # the instance id changes when the Dagster home was deleted: a cached instance would write into
+        # SQLite files that no longer exist, so a long-lived process (the editor) opens the new home
+        key = (settings, home(), os.environ.get("DAGSTER_HOME"), os.environ.get("INBETWEEN_SHOTS"), instance_id())
         if key not in cls._cache:
             cls._cache[key] = cls(settings)
         return cls._cache[key]
@@ -272,8 +370,36 @@ class Session:
                 text = lines[0] if lines else "failed"
                 raise StageFailed(shot, stage, text if text.startswith(cause.cls_name) else f"{cause.cls_name}: {text}",
                                   log_path, err.to_string())
-            raise StageFailed(shot, "run", "the Dagster run failed", log_path)
+            raise StageFailed(shot, "run", _run_failure_cause(result), log_path)
         return result
+
+
+def open_instance():
+    """The Dagster instance of DAGSTER_HOME; HomeDamaged (one line, with the fix) when it cannot be opened."""
+    import dagster as dg
+
+    from .home import dagster_home
+
+    try:
+        instance = dg.DagsterInstance.get()
+        instance.get_runs_count()  # opens the run storage: a damaged SQLite file fails here, not mid-run
+        return instance
+    except Exception as e:
+        if _database_locked(e):
+            raise
+        raise HomeDamaged(dagster_home(), e) from e
+
+
+def _run_failure_cause(result) -> str:
+    """The first error a failed run reports outside any step (a resource that did not start, the engine)."""
+    for ev in result.all_events:
+        err = getattr(ev.event_specific_data, "error", None)
+        if err is not None:
+            while err.cause is not None:
+                err = err.cause
+            lines = err.message.strip().splitlines()
+            return f"{err.cls_name}: {lines[0] if lines else 'failed'}"
+    return "the Dagster run failed"
 
 
 # ---------------------------------------------------------------- front-end calls
@@ -292,6 +418,7 @@ def _log_path(partition: str) -> Path:
     return home() / "logs" / f"{time.strftime('%Y%m%d-%H%M%S')}-{partition}-{os.getpid()}.log"
 
 
+@retry_database_locked
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False) -> dict[str, dict]:
     """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
     session = Session.get(settings)
@@ -318,17 +445,13 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)
     with shot_lock(partition, on_wait):
-        p = plan(shot.root, settings, shot=shot)
-        names = p.to_run
-        executed: dict[str, dict] = {}
-        if names or not p.recorded:
-            # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
-            executed = execute(p, settings, names or list(SHOT_STAGES), verbose)
-            _remember_ui(p, SHOT_STAGES)
+        shot, executed = _settle(shot, settings, verbose)
         st = store()
         frames = st.read("inbetween_frames", partition)
         paths = st.read("optimal_path", partition)
-    stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True})} for n in SHOT_STAGES}
+        repairs = stage_warnings(partition)
+    stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
+                  "warnings": repairs.get(n, 0)} for n in SHOT_STAGES}
     chosen = paths.optimal if settings.blend == "optimal" else paths.diagonal
     report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
               "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
@@ -341,6 +464,50 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     report["seconds_total"] = round(time.perf_counter() - start, 3)
     write_outputs(Path(out_dir), frames.frames, report)
     return report
+
+
+SETTLE_ROUNDS = 3
+
+
+def _settle(shot: Shot, settings: Settings, verbose: bool) -> tuple[Shot, dict[str, dict]]:
+    """Run the stages that are not fresh until the shot on disk is the one they ran on.
+
+    A shot saved during the run (from the editor, a text editor) can make a stage read the new shot
+    while its parents were computed from the old one, or fail on the mix. When the sources changed
+    during a round, the saved shot is validated like the first one (ShotError if it is bad) and the
+    stages it touched run again; a failure is reported only if the shot did not change under it.
+    Returns the shot the outputs belong to and {stage: {seconds, cached}} of what executed.
+    """
+    executed: dict[str, dict] = {}
+    for _ in range(SETTLE_ROUNDS):
+        p = plan(shot.root, settings, shot=shot)
+        try:
+            if p.to_run or not p.recorded:
+                # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
+                executed.update(execute(p, settings, p.to_run or list(SHOT_STAGES), verbose))
+                _remember_ui(p, SHOT_STAGES)
+            failure = None
+        except (StageFailed, ShotError) as e:
+            failure = e
+        now = load_shot(shot.root)  # a shot saved meanwhile: validated (ShotError if the saved one is bad)
+        if source_versions(now) == p.sources:
+            if failure is not None:
+                raise failure
+            return now, executed
+        shot = now
+    raise StageFailed(shot.root, "run", f"the shot was saved again during each of {SETTLE_ROUNDS} runs", None)
+
+
+def stage_warnings(partition: str, names: tuple[str, ...] = SHOT_STAGES) -> dict[str, int]:
+    """How many input repairs (warnings) each stored stage recorded: {stage: count}, stages without any left out."""
+    st = store()
+    out = {}
+    for name in names:
+        _, recorded = st.provenance(name, partition)
+        n = len((recorded or {}).get("warnings") or [])
+        if n:
+            out[name] = n
+    return out
 
 
 def status(shot_dir: str | Path, settings: Settings | None = None) -> Plan:
@@ -390,37 +557,65 @@ def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings |
     return written
 
 
-def _batch_worker(shot_dir: str, out_dir: str, settings: Settings) -> tuple[str, dict | None, str | None]:
+def _batch_worker(shot_dir: str, out_dir: str, settings: Settings,
+                  verbose: bool = False) -> tuple[str, dict | None, ShotFailure | None]:
     import torch
 
+    if not verbose:
+        warnings_to_log()
     torch.set_num_threads(1)  # two shots share two cores
+    name = Path(shot_dir).name
     try:
-        return shot_dir, run_shot(shot_dir, out_dir, settings), None
+        return shot_dir, run_shot(shot_dir, out_dir, settings, verbose=verbose), None
     except ShotError as e:
-        return shot_dir, None, str(e)
-    except StageFailed as e:
-        return shot_dir, None, str(e)
+        return shot_dir, None, ShotFailure(str(e), name, True)
+    except (StageFailed, HomeDamaged) as e:
+        return shot_dir, None, ShotFailure(str(e), name, False)
     except Exception as e:  # one line per failed shot; other shots go on
-        return shot_dir, None, f"{shot_dir}: {type(e).__name__}: {e}".splitlines()[0]
+        cause = " ".join(f"{type(e).__name__}: {e}".split())[:300]
+        return shot_dir, None, ShotFailure(f"{shot_dir}: {cause}", name, False)
 
 
-def batch(root: str | Path, out_dir: str | Path, workers: int = 2,
-          settings: Settings | None = None) -> tuple[dict, list[str]]:
-    """Every shot directory under root, `workers` at a time; returns (reports by shot name, errors)."""
+def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Settings | None = None,
+          verbose: bool = False, on_done: Callable[[str, dict | None, ShotFailure | None], None] | None = None,
+          ) -> tuple[dict, list[str]]:
+    """Every shot directory under root, `workers` at a time; returns (reports by shot name, errors).
+
+    Each error is a ShotFailure (a str naming the shot's failure in one line). on_done(shot name, report,
+    error) is called as each shot ends. A batch whose valid shots together exceed the output-pixel bound
+    is refused before any shot runs (ShotError).
+    """
     import multiprocessing as mp
 
     settings = settings or Settings()
     ensure_home()
     shots = sorted(d for d in Path(root).iterdir() if (d / "shot.json").is_file())
+    valid = []
+    for d in shots:
+        try:
+            valid.append(load_shot(d))
+        except ShotError:
+            pass  # its worker reports it, and the other shots go on
+    check_batch(root, valid)
     for d in shots:  # register up front, one writer at a time
         register(d)
     reports, errors = {}, []
-    with ProcessPoolExecutor(max_workers=workers, mp_context=mp.get_context("spawn")) as pool:
-        futures = [pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings) for d in shots]
+    with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=mp.get_context("spawn")) as pool:
+        futures = {pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings, verbose): d
+                   for d in shots}
         for f in as_completed(futures):
-            shot_dir, report, error = f.result()
+            try:
+                shot_dir, report, error = f.result()
+            except BrokenProcessPool:  # a worker died (killed, out of memory): its shot failed, not the batch
+                d = futures[f]
+                shot_dir, report = str(d), None
+                error = ShotFailure(f"{d}: run: the worker process died (killed, or out of memory); fix: rerun the "
+                                    "batch (stored stages are kept); if it dies again, run this shot alone with "
+                                    "`inbetween run`", d.name, False)
             if error:
                 errors.append(error)
             else:
                 reports[Path(shot_dir).name] = report
+            if on_done is not None:
+                on_done(Path(shot_dir).name, report, error)
     return reports, errors

@@ -180,10 +180,14 @@ def read_meta(path: Path) -> dict | None:
     """meta.json of the output at `path` if it is complete (every recorded file present at its size), else None."""
     try:
         meta = json.loads((path / "meta.json").read_text())
+        if not isinstance(meta, dict) or not isinstance(meta.get("hash"), str):
+            return None  # a meta.json edited or damaged into something else
         files = meta.get("__files__")
-        if files is not None and any((path / name).stat().st_size != size for name, size in files.items()):
+        if files is not None and (not isinstance(files, dict)
+                                  or any((path / name).stat().st_size != size for name, size in files.items())):
             return None
-        return meta if "hash" in meta else None
+        provenance = meta.get("__provenance__")
+        return meta if provenance is None or isinstance(provenance, dict) else None
     except (OSError, ValueError, TypeError):
         return None
 

@@ -2,11 +2,23 @@
 
 Images in memory are float32 in [0, 1], shape (H, W, C) with C in {1, 3, 4};
 straight (unassociated) alpha, so a PNG round trip is exact.
+
+Reading is defensive: a file is refused, with one ShotError line, before its
+pixels are decoded when its header is unreadable, has no pixels or claims more
+than MAX_SIDE per side (a decompression bomb), and after decoding when the
+decoder reports damage (a truncated PNG or JPEG). What the C decoders print
+(libpng's "libpng error: ...") is captured into that line instead of the
+terminal. `pixel_problem` adds the checks of a drawing's content (finite
+values, not a blank page), cached per file version.
 """
 from __future__ import annotations
 
+import functools
 import os
+import sys
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -15,15 +27,65 @@ import OpenImageIO as oiio
 from ops.errors import ShotError
 
 MAX_SIDE = 8192  # refuse larger images before decoding their pixels
+MIN_SIDE = 32  # a smaller drawing has too few pixels to mesh a character
+MAX_CHANNELS = 16  # RGBA plus a few extra channels (TIFF, EXR); more is not a drawing
+BLANK_RANGE = 1.0 / 255.0  # a drawing whose colours all lie within this of each other is a blank page
+READ_FIX = "give a PNG/JPEG/TIFF/EXR file that exists"
+
+
+def _one_line(text: str, limit: int = 240) -> str:
+    """Collapse a decoder's (possibly multi-line) message into one short line."""
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+@contextmanager
+def captured_stderr() -> Iterator[list[str]]:
+    """Capture what C libraries print on file descriptor 2 (libpng, libjpeg) while the block runs.
+
+    Yields a list that holds the captured text once the block ends. Output of other threads during
+    the block lands there too: a front end that draws progress meanwhile writes to its own dup of fd 2.
+    """
+    captured: list[str] = []
+    try:
+        sys.stderr.flush()
+    except (AttributeError, OSError, ValueError):
+        pass
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield captured
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            captured.append(tmp.read(4096).decode("utf-8", "replace"))
+
+
+def _open(path: str | Path, field: str, config: oiio.ImageSpec | None = None):
+    """(ImageInput, spec) with the header checked: readable, has pixels, at most MAX_CHANNELS channels."""
+    with captured_stderr() as noise:
+        inp = oiio.ImageInput.open(str(path), config) if config is not None else oiio.ImageInput.open(str(path))
+        detail = oiio.geterror() if inp is None else ""
+    if inp is None:
+        raise ShotError(path, field, f"cannot read image ({_one_line(detail or ''.join(noise)) or 'unknown format'})",
+                        READ_FIX)
+    spec = inp.spec()
+    if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+        inp.close()
+        raise ShotError(path, field, f"image has no pixels ({spec.width}x{spec.height}, {spec.nchannels} channels)",
+                        "re-export the drawing")
+    if spec.nchannels > MAX_CHANNELS:
+        inp.close()
+        raise ShotError(path, field, f"image has {spec.nchannels} channels, at most {MAX_CHANNELS} are read",
+                        "export it as RGB or RGBA")
+    return inp, spec
 
 
 def image_size(path: str | Path, field: str = "image") -> tuple[int, int]:
-    """(height, width) read from the header only; raises ShotError if unreadable."""
-    inp = oiio.ImageInput.open(str(path))
-    if inp is None:
-        raise ShotError(path, field, f"cannot read image ({oiio.geterror().strip() or 'unknown format'})",
-                        "give a PNG/JPEG/TIFF/EXR file that exists")
-    spec = inp.spec()
+    """(height, width) read from the header only; raises ShotError if unreadable or without pixels."""
+    inp, spec = _open(path, field)
     inp.close()
     return spec.height, spec.width
 
@@ -32,20 +94,46 @@ def read_image(path: str | Path, field: str = "image", max_side: int = MAX_SIDE)
     """Read an image as float32 (H, W, C) in [0, 1], straight alpha; checks the size first."""
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)
-    inp = oiio.ImageInput.open(str(path), config)
-    if inp is None:
-        raise ShotError(path, field, f"cannot read image ({oiio.geterror().strip() or 'unknown format'})",
-                        "give a PNG/JPEG/TIFF/EXR file that exists")
-    spec = inp.spec()
+    inp, spec = _open(path, field, config)
     if spec.width > max_side or spec.height > max_side:
         inp.close()
         raise ShotError(path, field, f"image is {spec.width}x{spec.height}, larger than {max_side}x{max_side}",
                         f"downscale the drawing to at most {max_side} px per side")
-    pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
-    inp.close()
-    if pixels is None:
-        raise ShotError(path, field, "cannot decode pixels", "re-export the image")
+    with captured_stderr() as noise:
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+        damaged = inp.has_error
+        detail = inp.geterror() if damaged else ""
+        inp.close()
+    if pixels is None or damaged:  # a truncated file: the decoder stops early, or fills the rest and says so
+        why = _one_line(detail or "".join(noise))
+        raise ShotError(path, field, f"cannot decode pixels ({why or 'the file is damaged'})",
+                        "re-export the image (the file is truncated or damaged)")
     return np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+
+
+@functools.lru_cache(maxsize=256)
+def _pixel_problem(path: str, version: tuple[int, int], kind: str) -> tuple[str, str] | None:
+    """(problem, fix) of one file version's pixels, or None; `version` = (size, mtime_ns) keys the cache."""
+    try:
+        img = read_image(path, "image")
+    except ShotError as e:
+        return e.problem, e.fix
+    if not np.isfinite(img).all():
+        return "contains NaN or infinite pixel values", "re-export it as an 8- or 16-bit PNG"
+    if kind == "drawing":
+        page = composite_over_white(to_rgba(img))
+        if float(np.ptp(page.reshape(-1, 3), axis=0).max()) < BLANK_RANGE:
+            return "the image is blank (one colour everywhere): there is no drawing", "give the keyframe's drawing"
+    return None
+
+
+def pixel_problem(path: str | Path, kind: str = "drawing") -> tuple[str, str] | None:
+    """Decode an image once per file version and check its content: (problem, fix) or None when usable.
+
+    kind 'drawing': finite values and not a blank page; 'mask': finite values.
+    """
+    st = os.stat(path)
+    return _pixel_problem(str(Path(path).resolve()), (st.st_size, st.st_mtime_ns), kind)
 
 
 def to_rgba(image: np.ndarray) -> np.ndarray:

@@ -1,28 +1,51 @@
 """Loading and validating a shot directory (SHOT_FORMAT.md v1).
 
 Every problem raises ops.errors.ShotError naming the file, the field and the fix.
+Every count is bounded before any work proportional to it is done (the MAX_*
+constants below), so a hostile or mistyped shot.json fails at once instead of
+running for hours: `"frames": 10000000` is one line, not a hang.
 """
 from __future__ import annotations
 
 import json
 import math
+import time
 from pathlib import Path
 
 import numpy as np
 
 from ops.errors import ShotError
-from ops.shotio.image_io import MAX_SIDE, image_size
+from ops.shotio.image_io import MAX_SIDE, MIN_SIDE, image_size, pixel_problem
 from ops.shotio.interpolate import resample_poses
 from ops.types import Shot, Skeleton
 
 FORMAT = "inbetween-shot/1"
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".bmp", ".webp"}
 
+# Bounds on what one shot may ask for; each is far above any real shot and far below what hangs a run.
+MAX_SHOT_JSON_BYTES = 16 * 2**20  # 1000 poses of 128 joints take about 4 MB of JSON
+MAX_FRAMES = 1000  # output frames, and given poses
+MAX_JOINTS = 128  # rigs of 2D characters have tens; interpolation is O(joints x depth) per frame
+MAX_T_JUNCTIONS = 64  # per keyframe: the topology search is exponential in the clicks of one region
+MAX_MASK_FILES = 16  # manual occlusion masks per keyframe
+MAX_SHOT_PIXELS = 2**30  # output frames x keyframe pixels: e.g. 500 frames of 1920x1080
+MAX_BATCH_PIXELS = 2**32  # the sum of MAX_SHOT_PIXELS's measure over every shot of one batch
+COORD_MARGIN = 4  # joint x, y may lie this many image sizes outside the image (a character leaving the frame)
+MAX_DEPTH = 1e6  # |z|: only the order of depths matters
+SAVE_SECONDS = 2.0  # a shot.json changed this recently may be in the middle of a save (partial text)
+JSON_RETRY_SECONDS = 0.5  # how long a partial shot.json is reread before it is an error
+
+
+def _show(value, limit: int = 60) -> str:
+    """A short repr of a JSON value for an error line (a 4000-digit number or a 1 MB string stays short)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
 
 def _resolve(root: Path, rel, file: Path, field: str) -> Path:
     """Absolute path of `rel` inside `root`; refuses paths that escape the shot directory."""
-    if not isinstance(rel, str) or not rel:
-        raise ShotError(file, field, f"expected a relative file path, got {rel!r}", "give a file name inside the shot directory")
+    if not isinstance(rel, str) or not rel or "\x00" in rel or len(rel) > 1024:
+        raise ShotError(file, field, f"expected a relative file path, got {_show(rel)}", "give a file name inside the shot directory")
     p = (root / rel).resolve()
     if Path(rel).is_absolute() or not p.is_relative_to(root):
         raise ShotError(file, field, f"path {rel!r} escapes the shot directory", "use a path inside the shot directory")
@@ -38,7 +61,17 @@ def _image(root: Path, rel, file: Path, field: str) -> tuple[Path, tuple[int, in
     if h > MAX_SIDE or w > MAX_SIDE:
         raise ShotError(file, field, f"image {rel!r} is {w}x{h}, larger than {MAX_SIDE}x{MAX_SIDE}",
                         f"downscale it to at most {MAX_SIDE} px per side")
+    if h < MIN_SIDE or w < MIN_SIDE:
+        raise ShotError(file, field, f"image {rel!r} is {w}x{h}, smaller than {MIN_SIDE}x{MIN_SIDE}",
+                        f"give a drawing of at least {MIN_SIDE} px per side")
     return p, (h, w)
+
+
+def _check_pixels(p: Path, rel: str, file: Path, field: str, kind: str) -> None:
+    """Decode the image once per file version: damaged data, NaN, a blank page are input errors."""
+    problem = pixel_problem(p, kind)
+    if problem:
+        raise ShotError(file, field, f"image {rel!r}: {problem[0]}", problem[1])
 
 
 def read_shot_json(shot_dir: str | Path) -> tuple[Path, dict]:
@@ -47,13 +80,44 @@ def read_shot_json(shot_dir: str | Path) -> tuple[Path, dict]:
     file = root / "shot.json"
     if not file.is_file():
         raise ShotError(file, "shot.json", "file not found", "create shot.json in the shot directory (see SHOT_FORMAT.md)")
-    try:
-        data = json.loads(file.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as e:
-        raise ShotError(file, "shot.json", f"not valid JSON ({e})", "fix the JSON syntax") from None
+    data = _parse_json(file)
     if not isinstance(data, dict):
         raise ShotError(file, "shot.json", "top level is not an object", "write a JSON object with the fields of SHOT_FORMAT.md")
     return file, data
+
+
+def _parse_json(file: Path):
+    """The parsed JSON of `file`. A read that races a save sees partial text: while the file is being
+    written (changed within SAVE_SECONDS) a failed parse is retried for up to JSON_RETRY_SECONDS."""
+    start, problem = time.monotonic(), ""
+    while True:
+        try:
+            st = file.stat()
+            if st.st_size > MAX_SHOT_JSON_BYTES:
+                raise ShotError(file, "shot.json", f"file is {st.st_size} bytes, more than {MAX_SHOT_JSON_BYTES}",
+                                "a shot.json is a few kB to a few MB: check that this is the right file")
+            raw = file.read_bytes()
+        except OSError as e:
+            raise ShotError(file, "shot.json", f"cannot read ({e.strerror or e})", "check the file's permissions") from None
+        try:
+            return json.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError as e:
+            problem = f"not UTF-8 text ({e.reason} at byte {e.start})"
+        except RecursionError:
+            problem = "nested too deeply"
+        except ValueError as e:  # JSONDecodeError, or an integer of more than 4300 digits
+            digits = "integer string conversion" in str(e)
+            problem = "a number has more than 4300 digits" if digits else " ".join(str(e).split())[:200]
+        being_saved = time.time() - st.st_mtime < SAVE_SECONDS
+        if not being_saved or time.monotonic() - start > JSON_RETRY_SECONDS:
+            raise ShotError(file, "shot.json", f"not valid JSON ({problem})", "fix the JSON syntax")
+        time.sleep(0.05)
+
+
+def _count(value, limit: int, file: Path, field: str, what: str, fix: str) -> None:
+    """Refuse a list longer than `limit` before any work proportional to its length."""
+    if isinstance(value, list) and len(value) > limit:
+        raise ShotError(file, field, f"{len(value)} {what}, more than {limit}", fix)
 
 
 def parse_skeleton(data: dict, file: Path) -> Skeleton:
@@ -62,10 +126,11 @@ def parse_skeleton(data: dict, file: Path) -> Skeleton:
     if not isinstance(sk, dict):
         raise ShotError(file, "skeleton", "missing or not an object", 'add {"joints": [...], "parents": [...]}')
     joints, parents = sk.get("joints"), sk.get("parents")
+    _count(joints, MAX_JOINTS, file, "skeleton.joints", "joints", f"use at most {MAX_JOINTS} joints")
     if not isinstance(joints, list) or not joints or not all(isinstance(j, str) for j in joints):
         raise ShotError(file, "skeleton.joints", "must be a non-empty list of names", "list one name per joint")
     if len(set(joints)) != len(joints):
-        dup = sorted({j for j in joints if joints.count(j) > 1})
+        dup = sorted({j for j in joints if joints.count(j) > 1})[:5]
         raise ShotError(file, "skeleton.joints", f"duplicate joint names {dup}", "make every joint name unique")
     if not isinstance(parents, list) or len(parents) != len(joints) or not all(isinstance(p, int) and not isinstance(p, bool) for p in parents):
         raise ShotError(file, "skeleton.parents", f"must be {len(joints)} integers (one per joint)", "give each joint's parent index, -1 for the root")
@@ -87,7 +152,7 @@ def parse_skeleton(data: dict, file: Path) -> Skeleton:
 def _finite_array(value, shape_tail: tuple[int, ...], file: Path, field: str, fix: str) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError, RecursionError):  # OverflowError: an integer beyond float range
         raise ShotError(file, field, "not a list of numbers", fix) from None
     if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail:
         if arr.size == 0 and shape_tail == (2,):
@@ -103,20 +168,26 @@ def parse_poses(data: dict, file: Path, skeleton: Skeleton) -> tuple[np.ndarray,
     poses = data.get("poses")
     if not isinstance(poses, list) or len(poses) < 2:
         raise ShotError(file, "poses", "need at least two poses (t = 0 and t = 1)", "add the poses of both keyframes")
+    _count(poses, MAX_FRAMES, file, "poses", "poses", f"give at most {MAX_FRAMES} poses")
     J = len(skeleton.joints)
     times, joints = [], []
     for i, p in enumerate(poses):
         if not isinstance(p, dict) or "t" not in p or "joints" not in p:
             raise ShotError(file, f"poses[{i}]", "needs fields 't' and 'joints'", 'write {"t": ..., "joints": [[x, y, z], ...]}')
         t = p["t"]
-        if not isinstance(t, (int, float)) or isinstance(t, bool) or not math.isfinite(t):
-            raise ShotError(file, f"poses[{i}].t", f"{t!r} is not a finite number", "give t in [0, 1]")
+        try:
+            finite = isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(float(t))
+        except OverflowError:  # an integer of hundreds of digits
+            finite = False
+        if not finite:
+            raise ShotError(file, f"poses[{i}].t", f"{_show(t)} is not a finite number", "give t in [0, 1]")
         if not isinstance(p["joints"], list) or len(p["joints"]) != J:
             got = len(p["joints"]) if isinstance(p["joints"], list) else "no list"
             raise ShotError(file, f"poses[{i}].joints", f"has {got} joints, the skeleton has {J}", "give one [x, y, z] per skeleton joint")
         joints.append(_finite_array(p["joints"], (3,), file, f"poses[{i}].joints", "give [x, y, z] per joint"))
         times.append(float(t))
     times_arr = np.asarray(times)
+    joints_arr = np.stack(joints)
     if times_arr[0] != 0.0:
         raise ShotError(file, "poses[0].t", f"first pose has t = {times_arr[0]}, expected 0", "make the first pose the keyframe at t = 0")
     if times_arr[-1] != 1.0:
@@ -125,7 +196,24 @@ def parse_poses(data: dict, file: Path, skeleton: Skeleton) -> tuple[np.ndarray,
     if bad.size:
         i = int(bad[0]) + 1
         raise ShotError(file, f"poses[{i}].t", f"t = {times_arr[i]} does not increase after {times_arr[i - 1]}", "sort the poses by strictly increasing t")
-    return times_arr, np.stack(joints)
+    return times_arr, joints_arr
+
+
+def _check_coordinates(poses: np.ndarray, size: tuple[int, int], file: Path) -> None:
+    """Joints may leave the frame (a character walking out), but not by more than COORD_MARGIN image sizes."""
+    h, w = size
+    reach = COORD_MARGIN * max(h, w)
+    x, y, z = poses[..., 0], poses[..., 1], poses[..., 2]
+    far = (x < -reach) | (x > w + reach) | (y < -reach) | (y > h + reach)
+    if far.any():
+        i, j = (int(v[0]) for v in np.nonzero(far))
+        raise ShotError(file, f"poses[{i}].joints[{j}]", f"point ({x[i, j]:.6g}, {y[i, j]:.6g}) lies more than "
+                        f"{COORD_MARGIN} image sizes outside the {w}x{h} image", "give x, y in the keyframes' pixels")
+    deep = np.abs(z) > MAX_DEPTH
+    if deep.any():
+        i, j = (int(v[0]) for v in np.nonzero(deep))
+        raise ShotError(file, f"poses[{i}].joints[{j}]", f"depth z = {z[i, j]:.6g} is beyond +-{MAX_DEPTH:g}",
+                        "only the order of depths matters: use small numbers")
 
 
 def _parse_masks(data: dict, root: Path, file: Path, size: tuple[int, int]):
@@ -149,16 +237,20 @@ def _parse_masks(data: dict, root: Path, file: Path, size: tuple[int, int]):
             p, s = _image(root, fg[k], file, f"masks.foreground[{k}]")
             if s != size:
                 raise ShotError(file, f"masks.foreground[{k}]", f"mask is {s[1]}x{s[0]}, keyframes are {size[1]}x{size[0]}", "export the mask at the keyframe size")
+            _check_pixels(p, fg[k], file, f"masks.foreground[{k}]", "mask")
             fg_paths.append(str(p))
         if occ[k] is None:
             occ[k] = []
         if not isinstance(occ[k], list):
             raise ShotError(file, f"masks.occlusion[{k}]", "must be a list of paths", "give a list (possibly empty)")
+        _count(occ[k], MAX_MASK_FILES, file, f"masks.occlusion[{k}]", "mask files",
+               f"give at most {MAX_MASK_FILES} occlusion masks per keyframe (merge regions that never touch)")
         paths = []
         for i, rel in enumerate(occ[k]):
             p, s = _image(root, rel, file, f"masks.occlusion[{k}][{i}]")
             if s != size:
                 raise ShotError(file, f"masks.occlusion[{k}][{i}]", f"mask is {s[1]}x{s[0]}, keyframes are {size[1]}x{size[0]}", "export the mask at the keyframe size")
+            _check_pixels(p, rel, file, f"masks.occlusion[{k}][{i}]", "mask")
             paths.append(str(p))
         occ_paths.append(tuple(paths))
     return tuple(fg_paths), tuple(occ_paths)
@@ -172,6 +264,8 @@ def _parse_t_junctions(data: dict, file: Path, size: tuple[int, int]) -> tuple[n
     h, w = size
     for k in range(2):
         field = f"t_junctions[{k}]"
+        _count(tj[k], MAX_T_JUNCTIONS, file, field, "T-junctions",
+               f"click at most {MAX_T_JUNCTIONS} T-junctions per keyframe (one per place a contour ends at another)")
         pts = _finite_array(tj[k] if tj[k] is not None else [], (2,), file, field, "give a list of [x, y] pixel points")
         outside = (pts[:, 0] < -0.5) | (pts[:, 0] > w - 0.5) | (pts[:, 1] < -0.5) | (pts[:, 1] > h - 0.5)
         if outside.any():
@@ -182,11 +276,11 @@ def _parse_t_junctions(data: dict, file: Path, size: tuple[int, int]) -> tuple[n
 
 
 def load_shot(shot_dir: str | Path) -> Shot:
-    """Parse and validate a shot directory; images are checked from their headers only."""
+    """Parse and validate a shot directory: counts and sizes first, then the images' pixels (once per file version)."""
     file, data = read_shot_json(shot_dir)
     root = file.parent
     if data.get("format") != FORMAT:
-        raise ShotError(file, "format", f"is {data.get('format')!r}", f'set "format": "{FORMAT}"')
+        raise ShotError(file, "format", f"is {_show(data.get('format'))}", f'set "format": "{FORMAT}"')
     keys = data.get("keyframes")
     if not isinstance(keys, list) or len(keys) != 2:
         raise ShotError(file, "keyframes", "must list exactly two images", 'write "keyframes": ["key0.png", "key1.png"]')
@@ -195,22 +289,33 @@ def load_shot(shot_dir: str | Path) -> Shot:
         raise ShotError(file, "keyframes", f"key0 is {s0[1]}x{s0[0]} but key1 is {s1[1]}x{s1[0]}", "export both keyframes at the same size")
     skeleton = parse_skeleton(data, file)
     given_t, given = parse_poses(data, file, skeleton)
+    _check_coordinates(given, s0, file)
     frames = data.get("frames")
+    if frames is not None and (not isinstance(frames, int) or isinstance(frames, bool) or frames < 2):
+        raise ShotError(file, "frames", f"{_show(frames)} is not an integer >= 2", "give the number of output frames including both keyframes")
+    if frames is not None and frames > MAX_FRAMES:
+        raise ShotError(file, "frames", f"{_show(frames)} frames, more than {MAX_FRAMES}",
+                        f"give at most {MAX_FRAMES} frames (split a longer shot at a key pose)")
+    n_out = frames if frames is not None else len(given_t)
+    if n_out * s0[0] * s0[1] > MAX_SHOT_PIXELS:
+        raise ShotError(file, "frames" if frames is not None else "poses",
+                        f"{n_out} frames of {s0[1]}x{s0[0]} are {n_out * s0[0] * s0[1]} pixels, more than {MAX_SHOT_PIXELS}",
+                        "give fewer frames or smaller keyframes")
     if frames is not None:
-        if not isinstance(frames, int) or isinstance(frames, bool) or frames < 2:
-            raise ShotError(file, "frames", f"{frames!r} is not an integer >= 2", "give the number of output frames including both keyframes")
         times = np.linspace(0.0, 1.0, frames)
         poses = resample_poses(given_t, given, times, skeleton.parents)
     else:
         times, poses = given_t, given
     tj = _parse_t_junctions(data, file, s0)
     fg, occ = _parse_masks(data, root, file, s0)
+    for k, p in enumerate((p0, p1)):  # last: decoding is the costliest check (cached per file version)
+        _check_pixels(p, keys[k], file, f"keyframes[{k}]", "drawing")
     gt = data.get("ground_truth")
     gt_path = None
     if gt is not None:
         gt_path = _resolve(root, gt, file, "ground_truth")
         if not gt_path.is_dir():
-            raise ShotError(file, "ground_truth", f"folder {gt!r} does not exist", "add the folder of reference frames or remove the field")
+            raise ShotError(file, "ground_truth", f"folder {_show(gt)} does not exist", "add the folder of reference frames or remove the field")
         gt_path = str(gt_path)
     return Shot(root=str(root), keyframes=(str(p0), str(p1)), size=s0, skeleton=skeleton, times=times,
                 poses=poses, t_junctions=tj, foreground_masks=fg, occlusion_masks=occ, ground_truth=gt_path,
@@ -219,5 +324,19 @@ def load_shot(shot_dir: str | Path) -> Shot:
 
 def ground_truth_files(folder: str | Path) -> list[Path]:
     """Reference frames of a ground_truth folder: 0000.png, 0001.png ... (any image extension, e.g. .jpg), in order."""
-    return sorted((f for f in Path(folder).iterdir() if f.stem.isdigit() and f.suffix.lower() in IMAGE_SUFFIXES),
+    # isdecimal, not isdigit: a file named "².png" is a digit but not a number int() reads
+    return sorted((f for f in Path(folder).iterdir() if f.stem.isdecimal() and f.suffix.lower() in IMAGE_SUFFIXES),
                   key=lambda f: int(f.stem))
+
+
+def output_pixels(shot: Shot) -> int:
+    """Pixels of every output frame of a shot: frames x height x width (what MAX_SHOT_PIXELS bounds)."""
+    return len(shot.times) * shot.size[0] * shot.size[1]
+
+
+def check_batch(root: str | Path, shots: list[Shot]) -> None:
+    """Refuse a batch whose shots together ask for more than MAX_BATCH_PIXELS output pixels (ShotError)."""
+    total = sum(output_pixels(s) for s in shots)
+    if total > MAX_BATCH_PIXELS:
+        raise ShotError(root, "batch", f"{len(shots)} shots ask for {total} output pixels in all, more than "
+                        f"{MAX_BATCH_PIXELS}", "split the shots into several batches (several shot roots)")

@@ -1,0 +1,98 @@
+"""The CLI is quiet (issue 10): stderr holds one progress line per shot and error lines, nothing else.
+
+No Dagster DEBUG line, no BetaWarning/PreviewWarning, no traceback, for run, batch, status, masks and
+eval; --verbose shows Dagster's event log live; a failing stage is one line with the log's path, in
+run and in batch (whose table says which shot failed).
+"""
+from __future__ import annotations
+
+import os
+import re
+
+import pytest
+
+from .conftest import SHOT, cli
+
+pytestmark = pytest.mark.slow
+
+NOISE = ("Traceback", "DEBUG", "Warning", "warnings.warn", "dagster - ")
+
+
+def progress_line(line: str) -> bool:
+    """A shot's progress line: its name, the bar over the 14 stages, the count."""
+    return re.match(rf"^{SHOT}\s+\[[#=>.x]{{14}}\]\s+\d+/14  ", line) is not None
+
+
+def assert_quiet(done, allowed=progress_line) -> None:
+    for word in NOISE:
+        assert word not in done.stderr, done.stderr
+    for line in done.stderr.splitlines():
+        assert allowed(line), f"unexpected stderr line: {line!r}"
+
+
+def test_every_command_is_quiet(warm, tmp_path):
+    root = str(warm.shot.parent)
+    done = cli(warm.home, "run", str(warm.shot), "--out", str(tmp_path / "out"))  # fresh: Dagster not started
+    assert done.returncode == 0 and done.stdout.startswith("3 frames -> ")
+    assert_quiet(done)
+    assert len(done.stderr.splitlines()) == 1 and "14 cached" in done.stderr
+
+    warm.forget_dagster_record()  # Dagster runs now (it re-records every stage, all cached)
+    done = cli(warm.home, "run", str(warm.shot), "--out", str(tmp_path / "out"))
+    assert done.returncode == 0
+    assert_quiet(done)
+    logs = sorted((warm.home / "logs").glob("*.log"))
+    assert logs and "STEP_START" in logs[-1].read_text()  # the event log went to the file instead
+
+    for args in (["status", str(warm.shot)], ["status", str(warm.shot), "--json"],
+                 ["masks", str(warm.shot), "--out", str(tmp_path / "masks")]):
+        done = cli(warm.home, *args)
+        assert done.returncode == 0 and done.stdout
+        assert_quiet(done, allowed=lambda line: False)
+
+    done = cli(warm.home, "batch", root, "--out", str(tmp_path / "batch"))
+    assert done.returncode == 0
+    assert_quiet(done)
+    rows = [line.split() for line in done.stdout.splitlines()]
+    assert rows[0] == ["shot", "frames", "seconds", "cached", "warnings", "status"]
+    assert rows[2][0] == SHOT and rows[2][1] == "3" and rows[2][3] == "14/14" and rows[2][5] == "ok"
+
+    done = cli(warm.home, "eval", root, "--out", str(tmp_path / "eval"))
+    assert done.returncode == 0 and "written:" in done.stdout
+    assert_quiet(done, allowed=lambda line: False)
+
+
+def test_verbose_shows_the_event_log_live(warm, tmp_path):
+    warm.forget_dagster_record()
+    done = cli(warm.home, "run", str(warm.shot), "--out", str(tmp_path / "out"), "--verbose")
+    assert done.returncode == 0
+    assert "STEP_START" in done.stderr or "STEP_SUCCESS" in done.stderr
+
+
+def _break_a_stored_stage(warm) -> None:
+    """Same-size garbage in key0's deformed frames (intact by size, unreadable), and their reader missing."""
+    npz = warm.home / "storage" / warm.partition / "key0" / "deformed_frames" / "arrays.npz"
+    npz.write_bytes(os.urandom(npz.stat().st_size))
+    import shutil
+
+    shutil.rmtree(warm.home / "storage" / warm.partition / "rife_matrix")
+
+
+def test_a_failing_stage_is_one_line_with_the_log(warm, tmp_path):
+    _break_a_stored_stage(warm)
+    done = cli(warm.home, "run", str(warm.shot), "--out", str(tmp_path / "out"))
+    assert done.returncode == 1
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1, done.stderr
+    assert "Traceback" not in done.stderr
+    line = errors[0]
+    assert f"{warm.shot}: rife_matrix: " in line and "; fix: " in line
+    log = re.search(r"\(full log: (\S+)\)$", line).group(1)
+    assert "Traceback" in open(log).read() or "Error" in open(log).read()
+    assert not (tmp_path / "out" / "frames").exists()
+
+    done = cli(warm.home, "batch", str(warm.shot.parent), "--out", str(tmp_path / "batch"))
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert [line.split()[-1] for line in done.stdout.splitlines()[2:3]] == ["failed"]
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "rife_matrix" in errors[0], done.stderr
