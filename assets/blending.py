@@ -7,8 +7,8 @@ import pandas as pd
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
-from ops.blending.path_cells import path_cells
 from ops.blending.path import diagonal_path, optimal_path
+from ops.blending.path_cells import path_cells
 from ops.blending.quality import coverage_weight, inpainted_share, interpolation_quality, quality_table, texture_quality
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
