@@ -6,8 +6,9 @@ import pandas as pd
 
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
-from ops.blending.image_matrix import build_image_matrix
+from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
+from ops.blending.path_cells import path_cells
 from ops.blending.quality import coverage_weight, inpainted_share, interpolation_quality, quality_table, texture_quality
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
@@ -15,16 +16,35 @@ from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 from .stage import StageEnv, StageResult, stage_asset
 
 
+def _quality_inputs(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.ndarray):
+    """(inpainted shares (T,) of both sequences, q (T, A), coverage weight (T, H, W) of Q)."""
+    share0 = inpainted_share(seq0.inpainted, seq0.images[..., 3])
+    share1 = inpainted_share(seq1.inpainted, seq1.images[..., 3])
+    weight = coverage_weight(seq0.images[..., 3], seq1.images[..., 3])
+    return share0, share1, texture_quality(share0, share1, alphas), weight
+
+
 def _rife_matrix(env: StageEnv) -> StageResult:
-    """I(alpha, t): RIFE blends of the two deformed sequences on a dyadic alpha grid, and the flow at alpha 1/2."""
+    """I(alpha, t): RIFE blends of the two deformed sequences on a dyadic alpha grid, and the flow at alpha 1/2.
+
+    Only the cells the optimal or the diagonal path takes are blended (and the cells their bisection needs):
+    both paths are known from q and Q once the alpha-1/2 flows are (ops/blending/path_cells.py).
+    """
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
     rife = env.resource("rife").load()
+    alphas = alpha_grid(env.settings.alpha_depth)
+    _, _, q, weight = _quality_inputs(seq0, seq1, alphas)
+    epsilon = env.settings.epsilon
+
+    def wanted(flows: np.ndarray) -> np.ndarray:
+        return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon)
+
     matrix = build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=env.settings.alpha_depth,
-                                batch=env.resource("rife").batch)
+                                batch=env.resource("rife").batch, wanted=wanted)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
-    meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(len(matrix.times) * (len(matrix.alphas) - 2)),
-            "device": env.resource("rife").device}
+    meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
+            "cells_computed": int(matrix.computed.sum()), "device": env.resource("rife").device}
     return StageResult(matrix, meta, preview.frame_strip(mid))
 
 
@@ -33,10 +53,8 @@ def _quality(env: StageEnv) -> StageResult:
     matrix: ImageMatrix = env.read("rife_matrix")
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
-    share0 = inpainted_share(seq0.inpainted, seq0.images[..., 3])
-    share1 = inpainted_share(seq1.inpainted, seq1.images[..., 3])
-    q = texture_quality(share0, share1, matrix.alphas)
-    Q = interpolation_quality(matrix.flows, coverage_weight(seq0.images[..., 3], seq1.images[..., 3]))
+    share0, share1, q, weight = _quality_inputs(seq0, seq1, matrix.alphas)
+    Q = interpolation_quality(matrix.flows, weight)
     table = quality_table(matrix.times, matrix.alphas, q, Q)
     meta = {"Q_max": float(Q.max()), "Q_mean": float(Q.mean()), "q_max": float(q.max()),
             "inpainted_share_key0": [round(float(s), 4) for s in share0],
@@ -79,10 +97,11 @@ def _frames(env: StageEnv) -> StageResult:
     blend = env.settings.blend
     chosen = paths.optimal if blend == "optimal" else paths.diagonal
     T = len(matrix.times)
-    frames = select_frames(matrix.frames, chosen.alpha_index)
+    frames = select_frames(matrix.frames, chosen.alpha_index, matrix.computed)
     out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
     sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
-                                 paths.diagonal.alpha_index, thumb=72)
+                                 paths.diagonal.alpha_index, thumb=72,
+                                 computed=matrix.computed)
     meta = {"frames": T, "blend": blend, "cost": float(chosen.cost)}
     return StageResult(out, meta, sheet)
 

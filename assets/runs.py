@@ -313,11 +313,13 @@ class Session:
         _quiet_dagster_warnings()
         import dagster as dg
 
-        from .definitions import build_definitions
+        from . import definitions
 
         self.dg = dg
         self.settings = settings
-        self.defs = build_definitions(settings)
+        # the module's Definitions (the UI's) serve the default settings: Definitions are built once per process
+        self.defs = definitions.defs if settings == Settings() else definitions.build_definitions(settings)
+        self.resources = dict(self.defs.resources)
         self.job = self.defs.resolve_implicit_global_asset_job_def()
         self.instance = open_instance()
 
@@ -421,6 +423,8 @@ def _log_path(partition: str) -> Path:
 @retry_database_locked
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False) -> dict[str, dict]:
     """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
+    from .ahead import working_ahead
+
     session = Session.get(settings)
     session.ensure_partition(p.partition)
     session.observe(p.partition, p.sources)
@@ -430,7 +434,10 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
         if ev["event"] == "done" and ev["partition"] == p.partition:
             executed[ev["stage"]] = {"seconds": ev["seconds"], "cached": ev["cached"]}
 
-    with progress.listen(on_event):
+    # the stages compute on two threads as soon as their parents have, ahead of the steps that record them;
+    # the sources' versions are the ones the plan observed (not hashed again per step)
+    with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
+                                                  session.resources):
         session.materialize(p.shot.root, p.partition, names, _log_path(p.partition), verbose)
     return executed
 

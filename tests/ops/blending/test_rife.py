@@ -202,3 +202,73 @@ def test_identical_pair_is_its_own_midpoint(rife):
     np.testing.assert_array_equal(mid[0], a[0])
     np.testing.assert_array_equal(flow[0], 0.0)
     assert np.abs(flow[1]).max() > 2.0
+
+
+def figure_rgba(dx, h=224, w=288):
+    """(1, h, w, 4) float32: a small dark figure (a disc and a bar) on a transparent page, moved right by dx px."""
+    yy, xx = np.mgrid[:h, :w].astype(np.float32)
+    disc = np.clip(12.5 - np.hypot(xx - 120 - dx, yy - 90), 0, 1)
+    bar = np.clip(np.minimum(6.5 - np.abs(yy - 120), 30.5 - np.abs(xx - 140 - dx / 2)), 0, 1)
+    img = np.zeros((1, h, w, 4), np.float32)
+    img[..., 0], img[..., 1], img[..., 2] = 0.1, 0.2 + 0.5 * bar, 0.3
+    img[..., 3] = np.maximum(disc, bar)
+    return img
+
+
+def recording_net(monkeypatch):
+    """Record the (h, w) of every crop the network runs on."""
+    shapes = []
+    run = R.Rife._net_midpoint
+
+    def record(self, a0, a1):
+        shapes.append(tuple(a0.shape[2:]))
+        return run(self, a0, a1)
+
+    monkeypatch.setattr(R.Rife, "_net_midpoint", record)
+    return shapes
+
+
+def assert_same_blend(mid, flow, ref_mid, ref_flow, cover):
+    """Premultiplied colour and alpha within 0.02; flows within 0.3 px wherever either input has ink."""
+    np.testing.assert_allclose(mid[..., :3] * mid[..., 3:], ref_mid[..., :3] * ref_mid[..., 3:], atol=0.02)
+    np.testing.assert_allclose(mid[..., 3], ref_mid[..., 3], atol=0.02)
+    assert np.abs(flow - ref_flow)[cover].max() < 0.3
+
+
+def test_cropped_midpoint_matches_the_full_frame(rife, monkeypatch):
+    """The network on the box around the ink gives the full-frame midpoint, at a fraction of the pixels."""
+    a, b = figure_rgba(0), figure_rgba(8)
+    full_mid, full_flow = rife.midpoint(a, b, crop=False)
+    shapes = recording_net(monkeypatch)
+    mid, flow = rife.midpoint(a, b)
+    assert shapes == [(128, 160)]  # ink rows [78, 127) +- 32 snapped to 32 -> [32, 160); columns [108, 176) -> [64, 224)
+    cover = np.repeat(((a[..., 3] > 0) | (b[..., 3] > 0))[..., None], 4, axis=3)
+    assert_same_blend(mid, flow, full_mid, full_flow, cover)
+    assert abs(centroid_x(mid[0, ..., 3] * (np.arange(224) < 105)[:, None]) - 124) < 1.0  # the disc half way
+
+
+def test_box_grows_until_no_ink_is_cut(rife, monkeypatch):
+    """Given a box that cuts the midpoint's ink, the crop grows by the margin until nothing is cut."""
+    from ops.blending import crop
+
+    monkeypatch.setattr(R, "coverage_box", lambda alpha: crop.coverage_box(alpha, margin=0, grid=1))
+    a, b = figure_rgba(0), figure_rgba(8)
+    shapes = recording_net(monkeypatch)
+    mid, flow = rife.midpoint(a, b)
+    assert len(shapes) == 2 and shapes[0][0] < shapes[1][0] and shapes[0][1] < shapes[1][1]
+    full_mid, full_flow = rife.midpoint(a, b, crop=False)
+    cover = np.repeat(((a[..., 3] > 0) | (b[..., 3] > 0))[..., None], 4, axis=3)
+    assert_same_blend(mid, flow, full_mid, full_flow, cover)
+
+
+def test_blank_pair_is_paper(rife, monkeypatch):
+    """Two different but fully transparent images: transparent white paper, zero flow, no network call."""
+    a = np.zeros((1, 64, 64, 4), np.float32)
+    b = a.copy()
+    b[..., 0] = 0.5  # colour without coverage is no ink
+    shapes = recording_net(monkeypatch)
+    mid, flow = rife.midpoint(a, b)
+    assert shapes == []
+    np.testing.assert_array_equal(mid[..., :3], 1.0)
+    np.testing.assert_array_equal(mid[..., 3], 0.0)
+    np.testing.assert_array_equal(flow, 0.0)

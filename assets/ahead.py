@@ -1,0 +1,181 @@
+"""Work-ahead: the stages of one in-process run computed on two threads as soon as their parents are.
+
+Dagster's in-process executor runs one step after the other. Here every
+selected stage of the run starts as soon as its parents have finished, on
+one of two worker threads, while the executor's thread records the steps in
+its own order: each step (assets/stage.py) waits for its stage's outcome,
+replays its log lines, yields the output for the IO manager to store and runs
+the checks. The two keyframe lanes are independent up to rife_matrix, and
+numpy, SciPy, OpenCV and torch release the GIL, so both cores work; Dagster's
+event writes and the store's file writes overlap the computing too.
+
+Outputs computed in the run stay in memory for the stages below them (no
+read back from disk) until the run ends. Freshness is decided exactly as in
+a step: from the parents' data versions, taken from this run's outcomes or
+from the store, and the sources' versions as the plan observed them.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+from types import SimpleNamespace
+from typing import Any
+
+from ops.settings import RecordingSettings, Settings
+from ops.types import Shot
+from resources.store import Store
+
+from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
+from .stage import AHEAD, Outcome, StageEnv, run_stage
+
+WORKERS = 2  # the machine's cores: a third thread would only contend
+
+
+class _Log:
+    """A compute function's log while it runs ahead of its step: kept, then replayed into the step's log."""
+
+    def __init__(self):
+        self.lines: list[tuple[int, str]] = []
+
+    def log(self, level: int, message: str) -> None:
+        self.lines.append((level, message))
+
+    def debug(self, message: str) -> None:
+        self.log(logging.DEBUG, message)
+
+    def info(self, message: str) -> None:
+        self.log(logging.INFO, message)
+
+    def warning(self, message: str) -> None:
+        self.log(logging.WARNING, message)
+
+    def error(self, message: str) -> None:
+        self.log(logging.ERROR, message)
+
+
+class _Context:
+    """What a compute function may use of its Dagster context while it runs ahead: resources and a log."""
+
+    def __init__(self, resources: dict[str, Any]):
+        self.resources = SimpleNamespace(**resources)
+        self.log = _Log()
+
+
+class WorkAhead:
+    """The selected stages of one partition's run, computed ahead of their steps on WORKERS threads."""
+
+    def __init__(self, partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
+                 store: Store, resources: dict[str, Any], workers: int = WORKERS):
+        self.partition, self.names, self.shot, self.sources = partition, set(names), shot, sources
+        self.settings, self.store, self.resources = settings, store, resources
+        self.order = [n for n in ALL_STAGES if n in self.names]  # parents first
+        self.state = {n: "pending" for n in self.order}  # pending | running | done | failed
+        self.outcomes: dict[str, Outcome] = {}
+        self.errors: dict[str, BaseException] = {}
+        self.memory: dict[str, Any] = {}  # outputs computed in this run
+        self.contexts: dict[str, _Context] = {}
+        self.urgent: str | None = None  # the stage a step waits for: picked first
+        self.closed = False
+        self.cond = threading.Condition()
+        self.threads = [threading.Thread(target=self._work, name=f"inbetween-ahead-{i}", daemon=True)
+                        for i in range(workers)]
+
+    # ---- the executor's side
+
+    def outcome(self, name: str, context: Any) -> tuple[Outcome, StageEnv]:
+        """Wait for stage `name` (computing it here if no worker has started it); replay its log into the step's
+        context; -> (outcome, env for the checks). Re-raises the stage's exception."""
+        with self.cond:
+            if self.state[name] == "pending" and self._ready(name):
+                self.state[name] = "running"  # the executor's thread is idle anyway: compute here
+                inline = True
+            else:
+                inline = False
+                self.urgent = name
+                self.cond.notify_all()
+                while self.state[name] in ("pending", "running"):
+                    self.cond.wait()
+        if inline:
+            self._compute(name)
+        for level, message in self.contexts[name].log.lines:
+            context.log.log(level, message)
+        if name in self.errors:
+            raise self.errors[name]
+        return self.outcomes[name], self._env(name, context)
+
+    # ---- the workers' side
+
+    def _ready(self, name: str) -> bool:
+        return all(self.state.get(p, "done") == "done" for p in ALL_PARENTS[name])
+
+    def _next(self) -> str | None:
+        """A pending stage whose parents are done (the one a step waits for first), or None."""
+        ready = [n for n in self.order if self.state[n] == "pending" and self._ready(n)]
+        if self.urgent in ready:
+            return self.urgent
+        return ready[0] if ready else None
+
+    def _work(self) -> None:
+        while True:
+            with self.cond:
+                while not self.closed and (name := self._next()) is None:
+                    self.cond.wait()
+                if self.closed:
+                    return
+                self.state[name] = "running"
+            self._compute(name)
+
+    def _compute(self, name: str) -> None:
+        context = self.contexts[name] = _Context(self.resources)
+        env = self._env(name, context)
+        try:
+            parents = {p: self.sources.get(p) if p in SOURCES else self._version(p) for p in ALL_PARENTS[name]}
+            outcome = run_stage(name, env, parents, self.settings)
+        except BaseException as e:  # the step re-raises it, with this traceback
+            with self.cond:
+                self.errors[name] = e
+                self.state[name] = "failed"
+                self.cond.notify_all()
+            return
+        with self.cond:
+            self.outcomes[name] = outcome
+            if not outcome.cached:
+                self.memory[name] = outcome.result.value
+            self.state[name] = "done"
+            self.cond.notify_all()
+
+    def _version(self, name: str) -> str | None:
+        """Data version of a stage: this run's outcome if it ran here, else the stored output's."""
+        outcome = self.outcomes.get(name)
+        return outcome.version if outcome is not None else self.store.hash(name, self.partition)
+
+    def _env(self, name: str, context: Any) -> StageEnv:
+        env = StageEnv(context, self.partition, self.store, None, RecordingSettings(self.settings), self.memory)
+        env.__dict__["shot"] = self.shot  # the plan's shot: loaded once per run
+        return env
+
+    def start(self) -> None:
+        for t in self.threads:
+            t.start()
+
+    def close(self) -> None:
+        """Stop scheduling; a stage already computing finishes on its daemon thread and is dropped."""
+        with self.cond:
+            self.closed = True
+            self.cond.notify_all()
+
+
+@contextmanager
+def working_ahead(partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
+                  store: Store, resources: dict[str, Any]) -> Iterator[WorkAhead]:
+    """While open, the steps of `names` for this partition in this process take their outcomes from a WorkAhead."""
+    ahead = WorkAhead(partition, names, shot, sources, settings, store, resources)
+    AHEAD[partition] = ahead
+    ahead.start()
+    try:
+        yield ahead
+    finally:
+        ahead.close()
+        AHEAD.pop(partition, None)
