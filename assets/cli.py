@@ -1,4 +1,4 @@
-"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui. It parses, calls and prints.
+"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, worker. It parses, calls and prints.
 
 The work is done by assets/runs.py, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
@@ -41,7 +41,9 @@ def _parser() -> argparse.ArgumentParser:
     b = sub.add_parser("batch", help="every shot under a root, in parallel")
     b.add_argument("shots_root")
     b.add_argument("--out", required=True)
-    b.add_argument("--workers", type=int, default=2)
+    b.add_argument("--workers", type=int, default=2, help="shots in flight at once")
+    b.add_argument("--executor", choices=["in_process", "celery"], default="in_process",
+                   help="celery: every step on `inbetween worker` processes (docs/production.md)")
     method_flags(b)
     s = sub.add_parser("status", help="which stages of a shot the next run executes, and why")
     s.add_argument("shot_dir")
@@ -57,6 +59,16 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
     sub.add_parser("ui", help="open the Dagster UI on this project's instance")
+    w = sub.add_parser("worker", help="a farm worker: runs the steps of `batch --executor celery` (docs/production.md)")
+    w.add_argument("--queue", action="append", choices=["cpu", "gpu"],
+                   help="queue to serve, repeatable (default cpu); gpu: the RIFE steps, with INBETWEEN_DEVICE=cuda")
+    w.add_argument("--concurrency", type=int, default=1, help="steps at once (1: in this process; N: N children)")
+    w.add_argument("--threads", type=int, default=None, help="torch threads per step (default: cores / concurrency)")
+    w.add_argument("--broker", default=None, help="Celery broker URL (default: INBETWEEN_BROKER, else local Redis)")
+    w.add_argument("--visibility-timeout", type=float, default=None,
+                   help="seconds before an unacknowledged step goes to another worker (longer than any stage)")
+    w.add_argument("--name", default=None, help="worker name (default: QUEUES-PID@HOST)")
+    w.add_argument("--loglevel", default="INFO")
     return parser
 
 
@@ -77,7 +89,7 @@ def _batch(args) -> int:
     from .runs import batch
 
     t0 = time.perf_counter()
-    reports, errors = batch(args.shots_root, args.out, args.workers, _settings(args))
+    reports, errors = batch(args.shots_root, args.out, args.workers, _settings(args), executor=args.executor)
     for name, r in sorted(reports.items()):
         print(f"{name}: {r['frames']} frames, {r['seconds_total']:.1f} s")
     for err in errors:
@@ -123,7 +135,17 @@ def _ui(args) -> int:
     return 0
 
 
-COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui}
+def _worker(args) -> int:
+    from .farm.settings import DEFAULT_VISIBILITY_TIMEOUT
+    from .farm.worker import start_worker
+
+    start_worker(tuple(args.queue or ["cpu"]), args.concurrency, args.threads, args.broker,
+                 args.visibility_timeout or DEFAULT_VISIBILITY_TIMEOUT, args.name, args.loglevel)
+    return 0
+
+
+COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui,
+            "worker": _worker}
 
 
 def main(argv: list[str] | None = None) -> int:
