@@ -123,4 +123,4 @@ defs = build_definitions()
 
 def farm_job() -> dg.JobDefinition:
     """The farm job, for `dg.reconstructable`: a Celery worker rebuilds it by importing this module."""
-    return defs.get_job_def(FARM_JOB)
+    return defs.resolve_job_def(FARM_JOB)

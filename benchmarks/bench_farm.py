@@ -1,0 +1,114 @@
+"""Throughput of the six original samples: in-process runs one after another, against two local Celery workers.
+
+    python benchmarks/bench_farm.py [--scale 1.0] [--repeat 1]
+
+Needs the `.[farm]` extra, redis-server and PostgreSQL (tests/farm/servers.py
+starts throwaway ones on 127.0.0.1). Every mode starts from a fresh
+INBETWEEN_HOME, runs the CLI as a user would (new processes, Dagster start-up
+included) and is timed from the first command to the last frame written:
+  sequential   `inbetween run SHOT` for each shot in turn (in-process; torch uses every core)
+  batch x2     `inbetween batch --workers 2` (in-process, two shots at a time, one torch thread each)
+  farm x2      `inbetween batch --executor celery --workers 6` and two `inbetween worker --threads 1`
+               processes, Postgres storage: each stage a Celery task
+For the farm it also prints where the time went: the stages' own seconds
+(report.json), the seconds the workers' tasks took (their logs), and so the
+cost per step of the Celery round trip (plan rebuilt from the module,
+instance reconnected, events written to Postgres).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from tests.assets.conftest import SAMPLES, scaled_copy  # noqa: E402
+from tests.farm.local import local_farm  # noqa: E402
+
+ORIGINAL = ("arm_cross", "legs_cross", "manual_masks", "no_occlusion", "tail", "two_poses")
+
+
+def cli(args: list[str], env: dict) -> None:
+    subprocess.run([sys.executable, "-m", "assets.cli", *args], env=env, cwd=ROOT, check=True,
+                   stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+
+
+def local_env(home: Path) -> dict:
+    return {**os.environ, "PYTHONPATH": str(ROOT), "INBETWEEN_HOME": str(home), "DAGSTER_HOME": str(home / "dagster")}
+
+
+def stage_seconds(out: Path) -> float:
+    return sum(s["seconds"] for d in out.iterdir() for s in json.loads((d / "report.json").read_text())["stages"].values())
+
+
+def sequential(shots: Path, tmp: Path) -> float:
+    env, start = local_env(tmp / "home-seq"), time.perf_counter()
+    for d in sorted(shots.iterdir()):
+        cli(["run", str(d), "--out", str(tmp / "out-seq" / d.name)], env)
+    return time.perf_counter() - start
+
+
+def batch_in_process(shots: Path, tmp: Path) -> float:
+    start = time.perf_counter()
+    cli(["batch", str(shots), "--out", str(tmp / "out-batch"), "--workers", "2"], local_env(tmp / "home-batch"))
+    return time.perf_counter() - start
+
+
+def farm(shots: Path, tmp: Path) -> tuple[float, float, float, int]:
+    """(wall s, stage s, worker task s, tasks) of one farm batch."""
+    root = tmp / "farm"
+    root.mkdir()
+    with local_farm(root) as f:
+        workers = [f.start_worker("w1"), f.start_worker("w2")]
+        f.wait_ready()
+        start = time.perf_counter()
+        cli(["batch", str(shots), "--out", str(root / "out"), "--executor", "celery", "--workers", "6"], f.env)
+        wall = time.perf_counter() - start
+    tasks = [float(s) for w in workers for s in re.findall(r"succeeded in ([\d.]+)s", w.log.read_text())]
+    return wall, stage_seconds(root / "out"), sum(tasks), len(tasks)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--scale", type=float, default=1.0, help="resize the samples (1.0: as they are)")
+    ap.add_argument("--repeat", type=int, default=1, help="measure each mode this many times; medians are printed")
+    args = ap.parse_args()
+    results: dict[str, list] = {"sequential": [], "batch x2": [], "farm x2": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        shots = tmp / "shots"
+        for name in ORIGINAL:
+            if args.scale == 1.0:
+                shutil.copytree(SAMPLES / name, shots / name)
+            else:
+                scaled_copy(SAMPLES / name, shots / name, args.scale)
+        for i in range(args.repeat):
+            run = tmp / f"run{i}"
+            run.mkdir()
+            results["sequential"].append(sequential(shots, run))
+            results["batch x2"].append(batch_in_process(shots, run))
+            results["farm x2"].append(farm(shots, run))
+    n = len(ORIGINAL)
+    print(f"{n} shots at scale {args.scale}, {args.repeat} repeat(s), medians; {os.cpu_count()} cores")
+    print(f"{'mode':12s} {'wall s':>8s} {'shots/min':>10s}")
+    for mode, values in results.items():
+        wall = statistics.median(v[0] if isinstance(v, tuple) else v for v in values)
+        print(f"{mode:12s} {wall:8.1f} {60 * n / wall:10.2f}")
+    wall, stages, tasks, count = (statistics.median(v[i] for v in results["farm x2"]) for i in range(4))
+    print(f"farm: stages computed {stages:.1f} s, worker tasks took {tasks:.1f} s for {count:.0f} steps: "
+          f"{(tasks - stages) / max(count, 1):.2f} s of Celery/Dagster round trip per step; "
+          f"two workers busy {tasks / (2 * wall):.0%} of the wall time")
+
+
+if __name__ == "__main__":
+    main()
