@@ -24,7 +24,7 @@ from tests.assets.conftest import SAMPLES, scaled_copy
 from .local import ROOT, local_farm
 from .servers import free_port
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(1800)]  # the first test sets up two batches
 EXTRA = "the farm extra (pip install -e '.[farm]'), which .ci/run installs"
 pytest.importorskip("dagster_celery", reason=EXTRA)
 psycopg2 = pytest.importorskip("psycopg2", reason=EXTRA)
