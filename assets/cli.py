@@ -85,9 +85,28 @@ def _run(args) -> int:
     return 0
 
 
+def _farm_ready(args) -> bool:
+    """For --executor celery: the farm's packages are there (else one line, False); warn when no worker answers."""
+    from .farm.settings import missing_extra
+
+    why = missing_extra()
+    if why:
+        print(f"error: {why}", file=sys.stderr)
+        return False
+    if args.command == "batch":
+        from .farm.worker import answering
+
+        if not answering():
+            print("warning: no `inbetween worker` answered on the broker (INBETWEEN_BROKER) within 2 s: none runs, "
+                  "or all are busy with a step; the steps wait in their queues", file=sys.stderr, flush=True)
+    return True
+
+
 def _batch(args) -> int:
     from .runs import batch
 
+    if args.executor == "celery" and not _farm_ready(args):
+        return EXIT_BAD_INPUT
     t0 = time.perf_counter()
     reports, errors = batch(args.shots_root, args.out, args.workers, _settings(args), executor=args.executor)
     for name, r in sorted(reports.items()):
@@ -136,6 +155,8 @@ def _ui(args) -> int:
 
 
 def _worker(args) -> int:
+    if not _farm_ready(args):
+        return EXIT_BAD_INPUT
     from .farm.settings import DEFAULT_VISIBILITY_TIMEOUT
     from .farm.worker import start_worker
 

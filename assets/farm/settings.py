@@ -19,6 +19,16 @@ GPU_RESOURCE = "rife"  # stages that declare this resource run the network: rife
 DEFAULT_VISIBILITY_TIMEOUT = 7200.0
 
 
+def missing_extra() -> str | None:
+    """Why the farm cannot run here (its packages are not installed), or None."""
+    from importlib.util import find_spec
+
+    missing = [m for m in ("dagster_celery", "dagster_postgres", "redis") if find_spec(m) is None]
+    if missing:
+        return f"the farm needs {', '.join(missing)}: pip install -e '.[farm]' (docs/production.md)"
+    return None
+
+
 def broker_url() -> str:
     return os.environ.get(BROKER_ENV, DEFAULT_BROKER)
 

@@ -56,15 +56,31 @@ def hold_step(task_id: str | None = None, **_) -> None:
         return
     path = _step_lock_path(task_id)
     path.parent.mkdir(parents=True, exist_ok=True)
-    f = open(path, "w")  # noqa: SIM115  (held until the step ends, closed by release_step)
-    fcntl.flock(f, fcntl.LOCK_EX)
+    while True:
+        f = open(path, "a")  # noqa: SIM115  (held until the step ends, closed by release_step)
+        fcntl.flock(f, fcntl.LOCK_EX)
+        try:  # the holder we waited for removes the file: a lock on the removed file excludes nobody
+            if os.stat(path).st_ino == os.fstat(f.fileno()).st_ino:
+                break
+        except FileNotFoundError:
+            pass
+        f.close()
     _held[task_id] = f
 
 
 def release_step(task_id: str | None = None, **_) -> None:
+    """After a step: remove its lock file (no file is left per step) and release the lock."""
     f = _held.pop(task_id, None) if task_id else None
     if f is not None:
+        _step_lock_path(task_id).unlink(missing_ok=True)
         f.close()
+
+
+def answering(broker: str | None = None, timeout: float = 2.0) -> list[str]:
+    """Names of the workers that answer a ping on the broker (one busy running a step with
+    concurrency 1 cannot answer until the step ends)."""
+    replies = worker_app(broker).control.ping(timeout=timeout)
+    return sorted(name for reply in replies for name in reply)
 
 
 def _limit_threads(threads: int) -> None:

@@ -103,6 +103,7 @@ def farm_batch(farm, shots):
     start = time.perf_counter()
     proc = _check(farm.cli("batch", str(shots), "--out", str(out), "--executor", "celery",
                            "--workers", str(len(SHOTS))), farm)
+    assert "no `inbetween worker` answered" not in proc.stderr  # both idle workers answered the ping
     return out, proc, time.perf_counter() - start
 
 

@@ -52,9 +52,11 @@ def test_a_second_delivery_of_a_step_waits_for_the_first(tmp_path, monkeypatch):
     monkeypatch.setenv("INBETWEEN_HOME", str(tmp_path))
     hold_step(task_id="t1")
     second = textwrap.dedent("""
-        import time
-        from assets.farm.worker import hold_step
-        hold_step(task_id="t1"); print(time.time())
+        import os, time
+        from assets.farm import worker
+        worker.hold_step(task_id="t1")
+        live = os.fstat(worker._held["t1"].fileno()).st_ino == os.stat(worker._step_lock_path("t1")).st_ino
+        print(time.time(), live)
     """)
     proc = subprocess.Popen([sys.executable, "-c", second], cwd=ROOT, text=True, stdout=subprocess.PIPE,
                             env={"PYTHONPATH": str(ROOT), "INBETWEEN_HOME": str(tmp_path), "PATH": ""})
@@ -63,4 +65,6 @@ def test_a_second_delivery_of_a_step_waits_for_the_first(tmp_path, monkeypatch):
     released = time.time()
     release_step(task_id="t1")
     out, _ = proc.communicate(timeout=60)
-    assert proc.returncode == 0 and float(out) >= released
+    acquired, live = out.split()
+    assert proc.returncode == 0 and float(acquired) >= released
+    assert live == "True"  # it holds the lock file now at the path, not the one the first holder removed
