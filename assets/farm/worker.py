@@ -77,9 +77,9 @@ def release_step(task_id: str | None = None, **_) -> None:
 
 
 def answering(broker: str | None = None, timeout: float = 2.0) -> list[str]:
-    """Names of the workers that answer a ping on the broker (one busy running a step with
-    concurrency 1 cannot answer until the step ends)."""
-    replies = worker_app(broker).control.ping(timeout=timeout)
+    """The first worker to answer a ping on the broker, or none within `timeout` seconds (a worker
+    with concurrency 1 cannot answer while it runs a step)."""
+    replies = worker_app(broker).control.ping(timeout=timeout, limit=1)
     return sorted(name for reply in replies for name in reply)
 
 
