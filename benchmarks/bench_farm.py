@@ -21,6 +21,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import shutil
 import statistics
 import subprocess
@@ -51,21 +52,27 @@ def stage_seconds(out: Path) -> float:
     return sum(s["seconds"] for d in out.iterdir() for s in json.loads((d / "report.json").read_text())["stages"].values())
 
 
-def sequential(shots: Path, tmp: Path) -> float:
-    env, start = local_env(tmp / "home-seq"), time.perf_counter()
+def children_cpu() -> float:
+    """CPU seconds of the finished child processes so far (the CLI runs and everything they waited for)."""
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
+def sequential(shots: Path, tmp: Path) -> dict:
+    env, out = local_env(tmp / "home-seq"), tmp / "out-seq"
     for d in sorted(shots.iterdir()):
-        cli(["run", str(d), "--out", str(tmp / "out-seq" / d.name)], env)
-    return time.perf_counter() - start
+        cli(["run", str(d), "--out", str(out / d.name)], env)
+    return {"out": out}
 
 
-def batch_in_process(shots: Path, tmp: Path) -> float:
-    start = time.perf_counter()
-    cli(["batch", str(shots), "--out", str(tmp / "out-batch"), "--workers", "2"], local_env(tmp / "home-batch"))
-    return time.perf_counter() - start
+def batch_in_process(shots: Path, tmp: Path) -> dict:
+    out = tmp / "out-batch"
+    cli(["batch", str(shots), "--out", str(out), "--workers", "2"], local_env(tmp / "home-batch"))
+    return {"out": out}
 
 
-def farm(shots: Path, tmp: Path) -> tuple[float, float, float, int]:
-    """(wall s, stage s, worker task s, tasks) of one farm batch."""
+def farm(shots: Path, tmp: Path) -> dict:
+    """One farm batch; also the seconds the workers' tasks took, from their logs."""
     root = tmp / "farm"
     root.mkdir()
     with local_farm(root, visibility_timeout=3600.0) as f:  # no kills here: never hand a step out twice
@@ -75,7 +82,15 @@ def farm(shots: Path, tmp: Path) -> tuple[float, float, float, int]:
         cli(["batch", str(shots), "--out", str(root / "out"), "--executor", "celery", "--workers", "6"], f.env)
         wall = time.perf_counter() - start
     tasks = [float(s) for w in workers for s in re.findall(r"succeeded in ([\d.]+)s", w.log.read_text())]
-    return wall, stage_seconds(root / "out"), sum(tasks), len(tasks)
+    return {"out": root / "out", "wall": wall, "tasks": sum(tasks), "steps": len(tasks)}
+
+
+def measure(fn, shots: Path, tmp: Path) -> dict:
+    """wall s, CPU s (this process's children: for the farm, the workers and Redis, not PostgreSQL's
+    daemon) and the stages' own seconds of one mode."""
+    cpu, start = children_cpu(), time.perf_counter()
+    r = fn(shots, tmp)
+    return {"wall": time.perf_counter() - start, **r, "cpu": children_cpu() - cpu, "stages": stage_seconds(r["out"])}
 
 
 def main() -> None:
@@ -85,7 +100,7 @@ def main() -> None:
     ap.add_argument("--modes", nargs="+", choices=["sequential", "batch", "farm"], default=["sequential", "batch", "farm"])
     args = ap.parse_args()
     modes = {"sequential": ("sequential", sequential), "batch": ("batch x2", batch_in_process), "farm": ("farm x2", farm)}
-    results: dict[str, list] = {modes[m][0]: [] for m in args.modes}
+    results: dict[str, list[dict]] = {modes[m][0]: [] for m in args.modes}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         shots = tmp / "shots"
@@ -98,20 +113,21 @@ def main() -> None:
             run = tmp / f"run{i}"
             run.mkdir()
             for m in args.modes:
-                label, measure = modes[m]
-                results[label].append(measure(shots, run))
+                label, fn = modes[m]
+                results[label].append(measure(fn, shots, run))
     n = len(ORIGINAL)
-    print(f"{n} shots at scale {args.scale}, {args.repeat} repeat(s), medians; {os.cpu_count()} cores")
-    print(f"{'mode':12s} {'wall s':>8s} {'shots/min':>10s}")
-    for mode, values in results.items():
-        wall = statistics.median(v[0] if isinstance(v, tuple) else v for v in values)
-        print(f"{mode:12s} {wall:8.1f} {60 * n / wall:10.2f}")
-    if "farm x2" not in results:
-        return
-    wall, stages, tasks, count = (statistics.median(v[i] for v in results["farm x2"]) for i in range(4))
-    print(f"farm: stages computed {stages:.1f} s, worker tasks took {tasks:.1f} s for {count:.0f} steps: "
-          f"{(tasks - stages) / max(count, 1):.2f} s of Celery/Dagster round trip per step; "
-          f"two workers busy {tasks / (2 * wall):.0%} of the wall time")
+    med = lambda label, key: statistics.median(r[key] for r in results[label])
+    print(f"{n} shots at scale {args.scale}, {args.repeat} repeat(s), medians; {os.cpu_count()} cores; "
+          f"load average at the end {os.getloadavg()[0]:.1f}")
+    print(f"{'mode':12s} {'wall s':>8s} {'shots/min':>10s} {'CPU s':>8s} {'stage s':>8s}")
+    for label in results:
+        wall = med(label, "wall")
+        print(f"{label:12s} {wall:8.1f} {60 * n / wall:10.2f} {med(label, 'cpu'):8.1f} {med(label, 'stages'):8.1f}")
+    if "farm x2" in results:
+        wall, stages, tasks, steps = (med("farm x2", k) for k in ("wall", "stages", "tasks", "steps"))
+        print(f"farm: the workers' tasks took {tasks:.1f} s for {steps:.0f} steps whose stages computed {stages:.1f} s: "
+              f"{(tasks - stages) / max(steps, 1):.2f} s of Celery/Dagster round trip per step; "
+              f"two workers busy {tasks / (2 * wall):.0%} of the batch's wall time")
 
 
 if __name__ == "__main__":
