@@ -1,4 +1,4 @@
-"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, worker. It parses, calls and prints.
+"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit, worker. It parses, calls, prints.
 
 The work is done by assets/runs.py, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
@@ -59,6 +59,10 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
     sub.add_parser("ui", help="open the Dagster UI on this project's instance")
+    ed = sub.add_parser("edit", help="annotate a shot in the browser; saving reruns it incrementally")
+    ed.add_argument("shot_dir")
+    ed.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (0: any free port)")
+    ed.add_argument("--no-browser", action="store_true", help="do not open the default browser")
     w = sub.add_parser("worker", help="a farm worker: runs the steps of `batch --executor celery` (docs/production.md)")
     w.add_argument("--queue", action="append", choices=["cpu", "gpu"],
                    help="queue to serve, repeatable (default cpu); gpu: the RIFE steps, with INBETWEEN_DEVICE=cuda")
@@ -154,6 +158,13 @@ def _ui(args) -> int:
     return 0
 
 
+def _edit(args) -> int:
+    # the editor is the layer above assets (nothing imports it): it runs as its own program, as `ui` runs dagster
+    argv = [sys.executable, "-m", "editor", args.shot_dir, "--port", str(args.port)]
+    os.execv(sys.executable, argv + (["--no-browser"] if args.no_browser else []))
+    return 0
+
+
 def _worker(args) -> int:
     if not _farm_ready(args):
         return EXIT_BAD_INPUT
@@ -165,7 +176,7 @@ def _worker(args) -> int:
     return 0
 
 
-COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui,
+COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui, "edit": _edit,
             "worker": _worker}
 
 

@@ -21,8 +21,8 @@ def _lane(k: int) -> dict[str, tuple[str, ...]]:
         f"key{k}/masks": (f"key{k}/drawing", f"key{k}/pose"),
         f"key{k}/refined_masks": (f"key{k}/masks", f"key{k}/t_junctions", f"key{k}/pose"),
         f"key{k}/template": (f"key{k}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
-        f"key{k}/textured_template": (f"key{k}/template", f"key{k}/refined_masks", f"key{k}/drawing", f"key{o}/drawing",
-                                      f"key{o}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
+        f"key{k}/textured_template": (f"key{k}/template", f"key{k}/refined_masks", f"key{o}/refined_masks",
+                                      f"key{k}/pose", f"key{o}/pose"),
         f"key{k}/deformed_frames": (f"key{k}/textured_template", "motion"),
     }
 
@@ -57,7 +57,7 @@ STAGES = topological(PARENTS)
 # The evaluation group (issue 5): baselines and metrics against ground truth; `inbetween eval` runs it.
 EVAL_PARENTS: dict[str, tuple[str, ...]] = {
     "evaluation/rife_direct": ("key0/drawing", "key1/drawing", "motion"),
-    "evaluation/single_layer": ("key0/refined_masks", "key1/refined_masks", "key0/drawing", "key1/drawing",
+    "evaluation/single_layer": ("key0/refined_masks", "key1/refined_masks",
                                 "key0/pose", "key1/pose", "motion"),
     "evaluation/metrics": ("rife_matrix", "optimal_path", "evaluation/single_layer", "evaluation/rife_direct",
                            "key0/masks", "key1/masks", "key0/drawing", "key1/drawing", "ground_truth"),

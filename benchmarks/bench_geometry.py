@@ -51,7 +51,7 @@ def refined_masks(pose: np.ndarray, junctions: tuple[int, ...]) -> RefinedMasks:
     return RefinedMasks(
         foreground=fg.astype(bool), occlusion=[om.astype(bool)], front_bones=[np.array([3])],
         boundaries=[occ], junctions=[np.array(junctions, np.int64)], domain=[outer], domain_holes=np.zeros((0, 2)),
-        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32),
+        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32), colour=np.ones(fg.shape + (3,), np.float32),
     )
 
 

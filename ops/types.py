@@ -60,8 +60,12 @@ class Masks:
     occlusion: list[np.ndarray]  # per region (H, W) bool, inside foreground, sorted back to front
     front_bones: list[np.ndarray]  # per region (b,) int64 bone indices drawn in front in that region
     source: str  # "manual" | "predicted" | "mixed"
-    coverage: np.ndarray  # (H, W) float32 in [0, 1]: the character's alpha, fractional on soft edges, 0 on paper
-    paper: np.ndarray  # (H, W, 3) float32 paper colour model: drawing = coverage * colour + (1 - coverage) * paper
+    # the soft edge: drawing = coverage * colour + (1 - coverage) * paper, in the drawing's encoding
+    coverage: np.ndarray  # (H, W) float32 in [0, 1]: 1 inside, fractional on anti-aliased and soft edges, 0 off foreground
+    paper: np.ndarray  # (H, W, 3) float32 paper colour under every pixel, [0, 1] (white under a transparent cut-out)
+    colour: np.ndarray  # (H, W, 3) float32 character colour unmixed from the paper, [0, 1]
+    holes: np.ndarray  # (H, W) bool enclosed background seen through the body (not in foreground)
+    n_holes: int  # connected holes, each a hole in the mesh
     warnings: list[str] = field(default_factory=list)
 
 
@@ -79,6 +83,7 @@ class RefinedMasks:
     domain_holes: np.ndarray  # (h, 2) float64 one point inside each hole of the domain (enclosed paper), pixels
     coverage: np.ndarray  # (H, W) float32 character alpha (Masks.coverage)
     paper: np.ndarray  # (H, W, 3) float32 paper colour model (Masks.paper)
+    colour: np.ndarray  # (H, W, 3) float32 character colour unmixed from the paper (Masks.colour)
     warnings: list[str] = field(default_factory=list)
 
 

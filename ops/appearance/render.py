@@ -125,27 +125,53 @@ def downsample(image: np.ndarray, scale: int) -> np.ndarray:
     return cv2.resize(np.ascontiguousarray(image, dtype=np.float32), (w, h), interpolation=cv2.INTER_AREA)
 
 
+_REMAP = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
+
+
+class Renderer:
+    """One textured template ready to draw many frames: its premultiplied textures are made once."""
+
+    def __init__(self, textured: TexturedTemplate):
+        self.textured = textured
+        self.front = premultiply(textured.texture)
+        self.back = premultiply(textured.back_texture)
+
+    def _samples(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], s: int):
+        """Premultiplied RGBA of every supersample (H*s, W*s, 4), and the back map and hidden-face mask behind it."""
+        tpl = self.textured.template
+        ids = rasterize_ids(X, tpl.faces, depth_order(self.textured, pose), shape, s)
+        map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
+        hidden = (ids >= 0) & (self.textured.face_source.take(np.maximum(ids, 0)) > 0)  # the back texture's faces
+        # each texture is sampled only where it is selected (the other map points off-texture, giving 0),
+        # so the two premultiplied results add up to the composite
+        off = np.float32(-1e4)
+        pre = cv2.remap(self.front, np.where(hidden, off, map_x), map_y, **_REMAP)
+        pre += cv2.remap(self.back, np.where(hidden, map_x, off), map_y, **_REMAP)
+        return pre, map_x, map_y, hidden
+
+    def rgba(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
+             supersample: int = 2) -> tuple[np.ndarray, np.ndarray]:
+        """X (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W) bool)."""
+        shape = tuple(shape) if shape is not None else self.textured.texture.shape[:2]
+        s = int(supersample)
+        pre, map_x, map_y, hidden = self._samples(X, pose, shape, s)
+        rgba = unpremultiply(downsample(pre, s))
+        bh, bw = self.textured.back_inpainted.shape
+        cx = np.clip(np.rint(map_x).astype(np.int64), 0, bw - 1)
+        cy = np.clip(np.rint(map_y).astype(np.int64), 0, bh - 1)
+        # source-1 faces may hold inpainted pixels too (samples invisible in the other keyframe)
+        filled = hidden & self.textured.back_inpainted[cy, cx]
+        inpainted = (downsample(filled.astype(np.float32), s) >= 0.5) & (rgba[..., 3] > 0.5)
+        return rgba.astype(np.float32), inpainted
+
+    def over_white(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], supersample: int = 1) -> np.ndarray:
+        """The same frame composited over white, (H, W, 3) float32: no round trip through straight alpha."""
+        s = int(supersample)
+        pre = downsample(self._samples(X, pose, shape, s)[0], s)
+        return pre[..., :3] + (1.0 - pre[..., 3:4])
+
+
 def render(textured: TexturedTemplate, X: np.ndarray, pose: np.ndarray,
            shape: tuple[int, int] | None = None, supersample: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """X: (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W) bool)."""
-    tpl = textured.template
-    shape = tuple(shape) if shape is not None else textured.texture.shape[:2]
-    s = int(supersample)
-    ids = rasterize_ids(X, tpl.faces, depth_order(textured, pose), shape, s)
-    map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
-    f = np.maximum(ids, 0)
-    hidden = (ids >= 0) & (textured.face_source.take(f) > 0)  # faces hidden at the keyframe: the back texture
-    remap = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
-    # each texture is sampled only where it is selected (the other map points off-texture, giving 0),
-    # so the two premultiplied results add up to the composite
-    off = np.float32(-1e4)
-    front = cv2.remap(premultiply(textured.texture), np.where(hidden, off, map_x), map_y, **remap)
-    back = cv2.remap(premultiply(textured.back_texture), np.where(hidden, map_x, off), map_y, **remap)
-    rgba = unpremultiply(downsample(front + back, s))
-    bh, bw = textured.back_inpainted.shape
-    cx = np.clip(np.rint(map_x).astype(np.int64), 0, bw - 1)
-    cy = np.clip(np.rint(map_y).astype(np.int64), 0, bh - 1)
-    # source-1 faces may hold inpainted pixels too (samples invisible in the other keyframe)
-    filled = hidden & textured.back_inpainted[cy, cx]
-    inpainted = (downsample(filled.astype(np.float32), s) >= 0.5) & (rgba[..., 3] > 0.5)
-    return rgba.astype(np.float32), inpainted
+    return Renderer(textured).rgba(X, pose, shape, supersample)

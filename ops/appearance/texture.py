@@ -15,7 +15,6 @@ from scipy import ndimage
 
 from ops.appearance.inpaint import Inpainter
 from ops.appearance.render import affine_maps, rasterize_ids
-from ops.shotio.image_io import to_rgba
 from ops.types import RefinedMasks, Template, TexturedTemplate
 
 VISIBLE_FRACTION = 0.5  # a pocket face takes the other keyframe's texture if this much of it is visible there
@@ -42,17 +41,9 @@ def visible_fraction(tris: np.ndarray, visible: np.ndarray, k: int = SAMPLES_PER
     return vals.reshape(pts.shape[:2]).mean(axis=1)
 
 
-def unmix(drawing: np.ndarray, coverage: np.ndarray, paper: np.ndarray) -> np.ndarray:
-    """(H, W, 4) straight RGBA of the character alone: its colour unmixed from the paper, alpha = coverage.
-
-    drawing (H, W, C), coverage (H, W) in [0, 1], paper (H, W, 3): drawing = coverage * colour + (1 - coverage) * paper,
-    so the premultiplied colour coverage * colour = drawing - (1 - coverage) * paper is exact wherever it is in range.
-    """
-    rgb = to_rgba(drawing)[..., :3]
-    c = np.asarray(coverage, np.float32)[..., None]
-    pre = rgb - (1.0 - c) * np.asarray(paper, np.float32)
-    colour = np.where(c > 1.0 / 255.0, pre / np.maximum(c, 1e-6), rgb)
-    return np.concatenate([np.clip(colour, 0.0, 1.0), c], axis=2).astype(np.float32)
+def character_rgba(masks: RefinedMasks) -> np.ndarray:
+    """(H, W, 4) float32 straight RGBA of the character alone: its colour unmixed from the paper, alpha = coverage."""
+    return np.concatenate([masks.colour, masks.coverage[..., None]], axis=2).astype(np.float32)
 
 
 def _region_of_front_faces(template: Template) -> np.ndarray:
@@ -109,13 +100,13 @@ def _extend_margin(back: np.ndarray, inpainted: np.ndarray, covered: np.ndarray,
     inpainted[ring] = inpainted[iy[ring], ix[ring]]
 
 
-def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, drawing: np.ndarray,
-                     other: RefinedMasks, other_drawing: np.ndarray, pose: np.ndarray,
-                     deformed_to_other: np.ndarray, inpainter: Inpainter) -> TexturedTemplate:
-    """Drawings (H, W, C) with their masks, the keyframe's pose (J, 3), the template deformed to the other
-    keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at the keyframe shows the drawing)."""
+def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, other: RefinedMasks,
+                     pose: np.ndarray, deformed_to_other: np.ndarray, inpainter: Inpainter) -> TexturedTemplate:
+    """Both keyframes' masks (their coverage and unmixed colour are the drawings), the keyframe's pose (J, 3),
+    the template deformed to the other keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at
+    the keyframe shows the drawing)."""
     shape = own.foreground.shape
-    texture = unmix(drawing, own.coverage, own.paper)
+    texture = character_rgba(own)
     face_source = np.where(drawing_faces(template, weights, pose), 0, 1).astype(np.int64)
     back = np.zeros(shape + (4,), dtype=np.float32)
     back_inpainted = np.zeros(shape, dtype=bool)
@@ -131,7 +122,7 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
 
     ids, qx, qy = _back_samples(template, hidden, deformed_to_other, shape)
     covered = ids >= 0
-    other_rgb = np.ascontiguousarray(unmix(other_drawing, other.coverage, other.paper)[..., :3])
+    other_rgb = np.ascontiguousarray(other.colour, dtype=np.float32)
     remap = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     sampled = cv2.remap(other_rgb, qx, qy, borderValue=(0, 0, 0), **remap)
     seen = cv2.remap(visible.astype(np.float32), qx, qy, borderValue=0, **remap) >= 0.5

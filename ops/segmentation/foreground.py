@@ -1,68 +1,213 @@
-"""Foreground of an ink drawing on light paper (§4.1).
+"""Foreground of a character drawn on paper (§4.1): what differs from the paper in colour, as the skeleton sees it.
 
-Luminance (alpha composited over white), ink = local (adaptive) threshold
-confirmed by a global darkness test against the paper level, morphological
-closing to seal small gaps in the outline, hole filling (so an outlined
-character whose interior is paper-white becomes a filled silhouette),
-largest connected component.
+1. The paper colour is modelled at every pixel (ops.segmentation.paper), so tinted, off-white and
+   unevenly lit paper is no ink.
+2. Ink is any colour far enough from the local paper in CIELAB (ΔE*ab): dark lines, but also pale skin,
+   yellow and light washes, which luminance alone misses. The threshold follows the page's own noise.
+3. Small gaps in outlines are closed; the enclosed insides filled, and so are insides the frame cuts
+   open (a leg running off the bottom edge) where a bone runs through them.
+4. The skeleton is the prior: every component a bone touches is kept, specks no bone touches dropped.
+5. Enclosed paper that is background seen through the body becomes a hole (ops.segmentation.holes).
+6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage);
+   the mask reaches MARGIN_PX past the ink, a rim whose coverage falls to 0, so that the mesh boundary,
+   simplified to 2 px, still holds the whole soft edge.
+
+A drawing with real transparency (an RGBA cut-out) is segmented by its alpha instead.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 from scipy import ndimage
 
+from ops.segmentation.bones import bone_capsules, bone_radii, bone_samples
+from ops.segmentation.coverage import unmix
+from ops.segmentation.holes import find_holes
+from ops.segmentation.paper import Paper, delta_e, estimate_paper, to_lab
+from ops.shotio.image_io import to_rgba
+from ops.types import Skeleton
 
-def luminance(drawing: np.ndarray) -> np.ndarray:
-    """(H, W) float32 luminance in [0, 1] of a (H, W, C) float32 drawing, alpha composited over white."""
-    img = drawing if drawing.ndim == 3 else drawing[..., None]
-    c = img.shape[2]
-    color = img[..., :3] if c >= 3 else img[..., :1]
-    lum = color @ np.array([0.299, 0.587, 0.114], np.float32) if color.shape[2] == 3 else color[..., 0]
-    if c in (2, 4):
-        alpha = img[..., -1]
-        lum = lum * alpha + (1.0 - alpha)  # straight alpha over white paper
-    return np.clip(lum, 0.0, 1.0).astype(np.float32)
-
-
-def ink_mask(lum: np.ndarray) -> np.ndarray:
-    """(H, W) bool ink pixels of a (H, W) luminance image: adaptive threshold confirmed by global darkness."""
-    h, w = lum.shape
-    block = max(15, (min(h, w) // 8) | 1)  # odd, a few line widths wide
-    u8 = np.round(lum * 255).astype(np.uint8)
-    local = cv2.adaptiveThreshold(u8, 1, cv2.ADAPTIVE_THRESH_GAUSSIAN_C, cv2.THRESH_BINARY_INV, block, 8) > 0
-    # the paper level is the bright mode: tinted paper or vignetting must not read as ink
-    paper = float(np.percentile(lum, 90))
-    darker = lum < paper - 0.08
-    # solid ink fills, where the local threshold only finds the edges; absolute too, so shaded paper is not ink
-    very_dark = lum < min(paper - 0.35, 0.3)
-    return (local & darker) | very_dark
+INK_DELTA_E = 4.0  # ΔE*ab: the least colour difference from the paper that counts as drawn (a just-visible wash)
+NOISE_FACTOR = 3.5  # the threshold is at least this many times the page's median noise ΔE
+PAPER_FACTOR = 1.5  # a fringe pixel within this many times the median noise of the paper is paper ...
+MIN_PAPER_DELTA_E = 1.0  # ... or within this ΔE*ab of it (a noiseless page)
+BLUR_SIGMA = 0.8  # pixels: averages paper grain and JPEG noise before the ink decision
+CLOSE_SHARE = 0.008  # closing radius as a share of the image's long side: seals pencil gaps, keeps limbs apart
+BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touched by it
+WALL_SCALE, WALL_MARGIN_PX = 2.0, 4.0  # ink within WALL_SCALE x body radius + margin of a bone belongs to that body part
+MARGIN_PX = 2  # the mask reaches this far past the ink: the 2-px Douglas-Peucker mesh boundary keeps the soft edge
+TRANSPARENT_SHARE = 0.01  # RGBA with more than this share of pixels not fully opaque is a cut-out
+MIN_BONE_SAMPLES = 3  # bone samples (2 px apart) in a region the frame cuts open that make it an inside
 
 
-def largest_component(mask: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the largest 8-connected component of a (H, W) bool mask (empty stays empty)."""
+@dataclass
+class Foreground:
+    """A keyframe's character: its mask with holes, soft coverage and colour, and the paper under it."""
+
+    mask: np.ndarray  # (H, W) bool, True = character: every pixel with coverage > 0 and a rim of up to MARGIN_PX
+    #                   where it falls to 0; holes are False
+    coverage: np.ndarray  # (H, W) float32 in [0, 1]: 1 inside, fractional on soft edges, 0 on paper and in holes
+    colour: np.ndarray  # (H, W, 3) float32 character colour: drawing = coverage * colour + (1 - coverage) * paper
+    paper: np.ndarray  # (H, W, 3) float32 paper colour under every pixel (white for a cut-out)
+    holes: np.ndarray  # (H, W) bool enclosed paper that is background seen through the body
+    n_holes: int  # connected holes
+    warnings: list[str] = field(default_factory=list)
+
+
+def close_radius(shape: tuple[int, int]) -> int:
+    """Closing radius, pixels, for an image of (H, W): about 0.8 % of its long side, at least 2."""
+    return max(2, int(round(CLOSE_SHARE * max(shape))))
+
+
+def closing(mask: np.ndarray, radius: int) -> np.ndarray:
+    """(H, W) bool morphological closing with a disc; padded so the frame border does not glue ink to it."""
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1,) * 2)
+    pad = radius + 1
+    padded = np.pad(mask.astype(np.uint8), pad)
+    return cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[pad:-pad, pad:-pad] > 0
+
+
+def bone_touched(mask: np.ndarray, touch: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """(H, W) bool the 8-connected components of mask that the (H, W) bool bone pixels touch; warnings.
+
+    No bone touching any component (a pose far off the drawing) keeps the largest one, with a warning.
+    """
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return mask.copy(), []
+    ids = np.unique(labels[touch & mask])
+    ids = ids[ids > 0]
+    if len(ids) == 0:
+        sizes = np.bincount(labels.ravel())
+        sizes[0] = 0
+        return labels == int(np.argmax(sizes)), ["no bone touches the drawing; kept its largest part (check the pose)"]
+    return np.isin(labels, ids), []
+
+
+def fill_insides(ink: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(H, W) bool ink with its insides filled: enclosed regions, and regions the image border cuts open that
+    bones run through (points: (n, 2) float64 samples along the bones, x y pixels), except the page itself,
+    the largest region touching the border."""
+    filled = ndimage.binary_fill_holes(ink)
+    labels, n = ndimage.label(~filled)
     if n <= 1:
-        return mask.astype(bool)
-    sizes = np.bincount(labels.ravel())
-    sizes[0] = 0
-    return labels == int(np.argmax(sizes))
+        return filled
+    border = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    border = border[border > 0]
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    page = border[np.argmax(sizes[border])]
+    # a bone runs through a region when several of its samples lie clear of the region's ink
+    clear = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
+    h, w = ink.shape
+    col = np.round(points[:, 0]).astype(int)
+    row = np.round(points[:, 1]).astype(int)
+    ok = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+    hit = labels[row[ok], col[ok]][clear[row[ok], col[ok]]]
+    counts = np.bincount(hit, minlength=n + 1)
+    cut_open = [int(r) for r in border if r != page and counts[r] >= MIN_BONE_SAMPLES]
+    return filled | np.isin(labels, cut_open) if cut_open else filled
 
 
-def foreground_mask(drawing: np.ndarray, close_px: int | None = None) -> np.ndarray:
-    """(H, W) bool filled character silhouette of a (H, W, C) float32 ink drawing on light paper."""
-    lum = luminance(drawing)
-    ink = ink_mask(lum)
-    if drawing.ndim == 3 and drawing.shape[2] in (2, 4):
-        opaque = drawing[..., -1] > 0.5
-        if (~opaque).mean() > 0.01:  # a cut-out character on a transparent canvas is foreground too
-            ink |= opaque
-    h, w = lum.shape
-    r = close_px if close_px is not None else max(3, int(round(0.01 * max(h, w))))
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * r + 1, 2 * r + 1))
-    # pad so closing near the frame border does not glue the character to the edge
-    pad = r + 1
-    padded = np.pad(ink.astype(np.uint8), pad)
-    closed = cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[pad:-pad, pad:-pad] > 0
-    filled = ndimage.binary_fill_holes(closed)
-    return largest_component(filled)
+def _count(mask: np.ndarray) -> int:
+    """Number of 4-connected components of a (H, W) bool mask."""
+    return int(ndimage.label(mask)[1])
+
+
+def _cutout(rgba: np.ndarray, touch: np.ndarray) -> Foreground:
+    """Foreground of a (H, W, 4) straight-alpha cut-out: its alpha, over a white page."""
+    alpha = rgba[..., 3]
+    mask, warnings = bone_touched(alpha > 0, touch)
+    coverage = np.where(mask, alpha, 0.0).astype(np.float32)
+    holes = ndimage.binary_fill_holes(mask) & ~mask
+    return Foreground(
+        mask=mask, coverage=coverage, colour=rgba[..., :3].copy(), paper=np.ones_like(rgba[..., :3]),
+        holes=holes, n_holes=_count(holes), warnings=warnings,
+    )
+
+
+@dataclass
+class Page:
+    """How far every pixel of a drawing is from its paper, and the thresholds the page's noise sets."""
+
+    paper: Paper
+    delta: np.ndarray  # (H, W) float32 ΔE*ab of the drawing from the paper
+    smooth_delta: np.ndarray  # (H, W) float32 the same after a BLUR_SIGMA blur of the drawing (grain averaged)
+    ink_delta: float  # ΔE*ab above which a pixel is drawn
+    paper_delta: float  # ΔE*ab below which a pixel on the soft edge is paper
+
+
+def read_page(rgb: np.ndarray) -> Page:
+    """The paper under a (H, W, 3) float32 sRGB drawing and every pixel's colour distance from it."""
+    lab = to_lab(rgb)
+    paper = estimate_paper(rgb, lab)
+    return Page(
+        paper=paper, delta=delta_e(lab, paper.lab),
+        smooth_delta=delta_e(to_lab(cv2.GaussianBlur(rgb, (0, 0), BLUR_SIGMA)), paper.lab),
+        ink_delta=max(INK_DELTA_E, NOISE_FACTOR * paper.noise),
+        paper_delta=max(MIN_PAPER_DELTA_E, PAPER_FACTOR * paper.noise),
+    )
+
+
+def is_cutout(rgba: np.ndarray) -> bool:
+    """Whether a (H, W, 4) drawing has real transparency: a significant share of pixels not fully opaque."""
+    return float((rgba[..., 3] < 1.0 - 1.0 / 255).mean()) > TRANSPARENT_SHARE
+
+
+def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
+    """Foreground of a (H, W, C) float32 drawing whose (H, W) bool mask is given (a manual mask): its soft edge.
+
+    The mask stays exactly as given; coverage falls off only on its page-facing fringe, read from the drawing.
+    """
+    rgba = to_rgba(drawing)
+    mask = np.asarray(mask, bool)
+    holes = ndimage.binary_fill_holes(mask) & ~mask
+    if is_cutout(rgba):
+        return Foreground(
+            mask=mask.copy(), coverage=np.where(mask, rgba[..., 3], 0.0).astype(np.float32),
+            colour=rgba[..., :3].copy(), paper=np.ones_like(rgba[..., :3]), holes=holes, n_holes=_count(holes),
+        )
+    rgb = np.ascontiguousarray(rgba[..., :3])
+    page = read_page(rgb)
+    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(mask.shape)) & mask
+    coverage, colour = unmix(
+        rgb, page.paper.rgb, mask, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
+        page.paper_delta,
+    )
+    return Foreground(
+        mask=mask.copy(), coverage=coverage, colour=colour, paper=page.paper.rgb, holes=holes, n_holes=_count(holes),
+    )
+
+
+def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> Foreground:
+    """Foreground of a (H, W, C) float32 drawing (C = 1..4, straight alpha) at a (J, 3) pose, pixels."""
+    rgba = to_rgba(drawing)
+    shape = rgba.shape[:2]
+    touch = bone_capsules(shape, pose, skeleton, BONE_TOUCH_PX)
+    if is_cutout(rgba):
+        return _cutout(rgba, touch)
+    rgb = np.ascontiguousarray(rgba[..., :3])
+    page = read_page(rgb)
+
+    r = close_radius(shape)
+    sealed = closing(page.smooth_delta > page.ink_delta, r)
+    points, owner = bone_samples(pose, skeleton)
+    silhouette, warnings = bone_touched(fill_insides(sealed, points), touch)
+    radii = bone_radii(silhouette, pose, skeleton)
+    reach = WALL_SCALE * radii + WALL_MARGIN_PX
+    near = bone_capsules(shape, pose, skeleton, reach)
+    holes = find_holes(silhouette, sealed, touch, near, points, reach[owner], min_radius=r)
+    solid = silhouette & ~holes
+
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
+    mask = cv2.dilate(solid.astype(np.uint8), disc) > 0
+    coverage, colour = unmix(
+        rgb, page.paper.rgb, solid, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
+        page.paper_delta,
+    )
+    holes = holes & ~mask
+    return Foreground(
+        mask=mask, coverage=coverage, colour=colour, paper=page.paper.rgb, holes=holes, n_holes=_count(holes),
+        warnings=warnings,
+    )

@@ -1,4 +1,4 @@
-"""The masks of a keyframe (§4.1): foreground and occlusion regions, predicted or given by hand.
+"""The masks of a keyframe (§4.1): foreground (with holes and soft edges) and occlusion regions.
 
 Manual masks override the prediction (ops.segmentation.foreground,
 ops.segmentation.occlusion); the T-junction refinement (ops.segmentation.refine)
@@ -11,7 +11,7 @@ from scipy import ndimage
 
 from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
-from ops.segmentation.foreground import foreground_mask
+from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
 from ops.segmentation.occlusion import predict_occlusion
 from ops.types import Masks, Skeleton
@@ -39,12 +39,20 @@ def pose_warnings(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) 
     return warnings
 
 
-def _foreground(drawing: np.ndarray, manual: np.ndarray | None, source: str) -> np.ndarray:
-    """(H, W) bool foreground: the manual mask when given, else predicted; raises ShotError when empty."""
+def _foreground(
+    drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton, manual: np.ndarray | None, source: str
+) -> Foreground:
+    """The foreground: the manual mask when given (its soft edge read from the drawing), else predicted.
+
+    Raises ShotError when it is empty or the manual mask's size differs from the drawing's.
+    """
     if manual is None:
-        fg = foreground_mask(drawing)
-        if not fg.any():
-            raise ShotError(source, "keyframes", "no ink found in the drawing", "draw on light paper or give masks.foreground")
+        fg = segment_foreground(drawing, pose, skeleton)
+        if not fg.mask.any():
+            raise ShotError(
+                source, "keyframes", "nothing in the drawing differs from the paper",
+                "draw on plain paper or give masks.foreground",
+            )
         return fg
     m = np.asarray(manual)
     if m.shape != drawing.shape[:2]:
@@ -55,7 +63,7 @@ def _foreground(drawing: np.ndarray, manual: np.ndarray | None, source: str) -> 
     fg = m > 0.5 if m.dtype != bool else m.copy()
     if not fg.any():
         raise ShotError(source, "masks.foreground", "the manual foreground mask is empty", "paint the character white")
-    return fg
+    return foreground_from_mask(drawing, fg)
 
 
 def build_masks(
@@ -71,17 +79,20 @@ def build_masks(
     manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
     those regions. `source` names the keyframe file in errors.
     """
-    fg = _foreground(drawing, manual_foreground, source)
-    warnings = pose_warnings(fg, pose, skeleton)
+    seg = _foreground(drawing, pose, skeleton, manual_foreground, source)
+    fg = seg.mask
+    # bodies are as thick as drawn: a predicted mask's transparent rim must not thicken the bones' regions
+    body = fg if manual_foreground is not None else fg & (seg.coverage >= 0.5)
+    warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
     if predicted:
-        regions, fronts, w = predict_occlusion(fg, pose, skeleton)
+        regions, fronts, w = predict_occlusion(body, pose, skeleton)
         warnings += w
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w
         scored = []
-        thick = thick_regions(fg, pose, skeleton) if kept else None
+        thick = thick_regions(body, pose, skeleton) if kept else None
         for r in kept:
             front, depth, w = manual_front_bones(r, thick, pose, skeleton)
             warnings += w
@@ -90,7 +101,7 @@ def build_masks(
         regions, fronts = [s[1] for s in scored], [s[2] for s in scored]
     n_manual = (manual_foreground is not None) + (not predicted)
     kind = {0: "predicted", 1: "mixed", 2: "manual"}[n_manual]
-    coverage = fg.astype(np.float32)
-    paper = np.ones(fg.shape + (3,), np.float32)
-    return Masks(foreground=fg, occlusion=regions, front_bones=fronts, source=kind, coverage=coverage, paper=paper,
-                 warnings=warnings)
+    return Masks(
+        foreground=fg, occlusion=regions, front_bones=fronts, coverage=seg.coverage, colour=seg.colour,
+        paper=seg.paper, holes=seg.holes, n_holes=seg.n_holes, source=kind, warnings=warnings,
+    )

@@ -252,5 +252,6 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         domain_holes=holes,
         coverage=masks.coverage,
         paper=masks.paper,
+        colour=masks.colour,
         warnings=warnings,
     )

@@ -13,7 +13,8 @@ def _refined() -> RefinedMasks:
     fg[1:5, 1:6] = True
     return RefinedMasks(fg, [fg & (np.arange(7) > 3)], [np.array([2, 3])], [np.random.rand(5, 2)], [np.array([0, 2])],
                         [np.random.rand(9, 2), np.random.rand(4, 2)], np.random.rand(1, 2),
-                        fg.astype(np.float32) * 0.5, np.random.rand(6, 7, 3).astype(np.float32), ["snapped a joint"])
+                        fg.astype(np.float32) * 0.5, np.random.rand(6, 7, 3).astype(np.float32),
+                        np.random.rand(6, 7, 3).astype(np.float32), ["snapped a joint"])
 
 
 def test_round_trips_are_exact_and_hash_stable(tmp_path):

@@ -10,17 +10,18 @@ import pytest
 from ops.appearance import weights as tex_mod
 from ops.appearance.inpaint import OpenCVInpainter
 from ops.appearance.render import rasterize_ids
-from ops.appearance.texture import drawing_faces, subdivision_barycentrics, texture_template, unmix
+from ops.appearance.texture import drawing_faces, subdivision_barycentrics, texture_template
 from ops.appearance.weights import depth_weights, harmonic_weights
 from ops.types import RefinedMasks
 from tests.ops.appearance.test_render import make_template, pattern, square_foreground
 
 
-def refined(fg: np.ndarray, occlusion=(), coverage=None) -> RefinedMasks:
-    """The masks texturing reads: foreground, occlusion regions, coverage (default: the foreground) and white paper."""
-    cov = fg.astype(np.float32) if coverage is None else coverage
+def refined(fg: np.ndarray, drawing: np.ndarray, occlusion=()) -> RefinedMasks:
+    """The masks texturing reads: foreground, occlusion regions, and the drawing as the character's colour with
+    the foreground as coverage, on white paper."""
     return RefinedMasks(foreground=fg, occlusion=list(occlusion), front_bones=[], boundaries=[], junctions=[],
-                        domain=[], domain_holes=np.zeros((0, 2)), coverage=cov, paper=np.ones(fg.shape + (3,), np.float32))
+                        domain=[], domain_holes=np.zeros((0, 2)), coverage=fg.astype(np.float32),
+                        paper=np.ones(fg.shape + (3,), np.float32), colour=np.asarray(drawing, np.float32)[..., :3])
 
 
 FLAT = np.zeros((3, 3))  # every joint at depth 0: on ties the front sheet shows the drawing
@@ -129,7 +130,7 @@ def test_texture_template_sources_and_back_texture():
     size = 64
     tpl = make_template(size)
     drawing, fg, other, other_fg, occ = _shot(size)
-    tt = texture_template(tpl, depth_weights(tpl), refined(fg), drawing, refined(other_fg, occ), other, FLAT,
+    tt = texture_template(tpl, depth_weights(tpl), refined(fg, drawing), refined(other_fg, other, occ), FLAT,
                           tpl.rest + SHIFT, OpenCVInpainter())
     # front texture: the drawing, alpha = coverage (here the foreground; on white paper nothing to unmix)
     inside = fg.astype(bool)
@@ -168,7 +169,7 @@ def test_fully_occluded_pockets_are_inpainted_from_context():
     drawing = np.broadcast_to(colour, (size, size, 3)).copy()
     fg = square_foreground(size, 7.5)
     # the other keyframe hides everything: every pocket face is inpainted from the constant drawing around it
-    tt = texture_template(tpl, depth_weights(tpl), refined(fg), drawing, refined(fg, [fg]), drawing, FLAT, tpl.rest,
+    tt = texture_template(tpl, depth_weights(tpl), refined(fg, drawing), refined(fg, drawing, [fg]), FLAT, tpl.rest,
                           OpenCVInpainter())
     assert (tt.face_source[tpl.face_layer > 0] == 2).all()
     pocket_px = tt.back_texture[..., 3] > 0
@@ -185,7 +186,7 @@ def test_template_without_pockets_has_empty_back():
     flat = replace(tpl, rest=tpl.rest[used], faces=remap[tpl.faces[front]], face_layer=tpl.face_layer[front],
                    handles=remap[tpl.handles])
     drawing, fg, other, other_fg, occ = _shot()
-    tt = texture_template(flat, depth_weights(flat), refined(fg), drawing, refined(other_fg, occ), other, FLAT,
+    tt = texture_template(flat, depth_weights(flat), refined(fg, drawing), refined(other_fg, other, occ), FLAT,
                           flat.rest + SHIFT, OpenCVInpainter())
     assert (tt.face_source == 0).all() and (tt.back_texture == 0).all() and not tt.back_inpainted.any()
 
@@ -223,7 +224,7 @@ def test_rendered_inpainted_mask_follows_visible_inpainted_pocket(pocket_z):
     size = 64
     tpl = make_template(size)
     drawing, fg, other, other_fg, occ = _shot(size)
-    tt = texture_template(tpl, depth_weights(tpl), refined(fg), drawing, refined(other_fg, occ), other, FLAT,
+    tt = texture_template(tpl, depth_weights(tpl), refined(fg, drawing), refined(other_fg, other, occ), FLAT,
                           tpl.rest + SHIFT, OpenCVInpainter())
     tt = replace(tt, weights=textured(tpl, size).weights)  # front sheet on joint 0, pocket on joint 1
     pose = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, pocket_z]])
@@ -236,21 +237,6 @@ def test_rendered_inpainted_mask_follows_visible_inpainted_pocket(pocket_z):
     assert not inpainted[26:39, 25:30].any()
     assert not inpainted[:, :23].any() and not inpainted[:, 42:].any()
     assert np.abs(rgba[26:39, 25:30, :3] - drawing[26:39, 25:30]).max() < 0.02
-
-
-def test_unmix_reproduces_the_drawing_over_its_paper():
-    rng = np.random.default_rng(5)
-    colour = rng.uniform(0, 1, (32, 32, 3)).astype(np.float32)
-    paper = np.broadcast_to(np.array([0.95, 0.92, 0.85], np.float32), (32, 32, 3))
-    c = rng.uniform(0, 1, (32, 32)).astype(np.float32)
-    c[:4] = 0.0
-    drawing = c[..., None] * colour + (1 - c[..., None]) * paper
-    rgba = unmix(drawing, c, paper)
-    assert np.array_equal(rgba[..., 3], c)
-    back = rgba[..., 3:] * rgba[..., :3] + (1 - rgba[..., 3:]) * paper
-    assert np.abs(back - drawing)[c > 1 / 255].max() < 1e-5
-    assert np.abs(back - drawing).max() <= 1 / 255  # fainter than one level: colour left as drawn
-    assert np.abs(rgba[c > 0.05][:, :3] - colour[c > 0.05]).max() < 1e-4
 
 
 def test_the_layer_nearer_at_the_keyframe_shows_the_drawing():

@@ -40,7 +40,7 @@ def capsule_scene(scale=1.0, junctions=(3, 12)):
     refined = RefinedMasks(
         foreground=fg.astype(bool), occlusion=[om.astype(bool)], front_bones=[np.array([3])],
         boundaries=[occ], junctions=[np.array(junctions, np.int64)], domain=[outer], domain_holes=np.zeros((0, 2)),
-        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32),
+        coverage=fg.astype(np.float32), paper=np.ones(fg.shape + (3,), np.float32), colour=np.ones(fg.shape + (3,), np.float32),
     )
     return refined, sk, pose0, pose1
 
@@ -165,10 +165,21 @@ def _refined_from(domain, shape, holes=None):
     fg = np.zeros(shape, bool)
     return RefinedMasks(foreground=fg, occlusion=[], front_bones=[], boundaries=[], junctions=[], domain=domain,
                         domain_holes=np.zeros((0, 2)) if holes is None else holes,
-                        coverage=fg.astype(np.float32), paper=np.ones(shape + (3,), np.float32))
+                        coverage=fg.astype(np.float32), paper=np.ones(shape + (3,), np.float32), colour=np.ones(shape + (3,), np.float32))
 
 
 def test_bad_mode():
     refined, sk, pose, _ = capsule_scene()
     with pytest.raises(ValueError):
         build_template(refined, pose, sk, mode="triple")
+
+
+def test_zero_length_bone_as_in_animated_drawings_skeletons():
+    """root and hip at one spot (a zero-length bone): the template builds, and the rest mesh solves the key pose."""
+    refined, _, pose, pose1 = capsule_scene()
+    sk = Skeleton(joints=("root", "hips", "neck", "shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1, 2, 3, 4]))
+    pose = np.concatenate([pose[:1], pose])  # root duplicates hips
+    pose1 = np.concatenate([pose1[:1], pose1])
+    tpl = optimize_topology(refined, pose, pose1, sk)
+    assert np.allclose(tpl.handle_targets(pose), tpl.rest[tpl.handles])
+    assert count_flipped(tpl.rest, tpl.faces) == 0 and np.isfinite(tpl.energy)

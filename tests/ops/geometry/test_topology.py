@@ -70,7 +70,7 @@ def square_scene(junctions):
     refined = RefinedMasks(
         foreground=np.ones((61, 61), bool), occlusion=[np.zeros((61, 61), bool)], front_bones=[np.zeros(0, np.int64)],
         boundaries=[sq(20.0, 20.0, 2)], junctions=[np.array(junctions, np.int64)], domain=[sq(0.0, 60.0, 3)], domain_holes=np.zeros((0, 2)),
-        coverage=np.ones((61, 61), np.float32), paper=np.ones((61, 61, 3), np.float32),
+        coverage=np.ones((61, 61), np.float32), paper=np.ones((61, 61, 3), np.float32), colour=np.ones((61, 61, 3), np.float32),
     )
     return build_template(refined, pose, sk, max_area=8.0), refined, sk, pose
 

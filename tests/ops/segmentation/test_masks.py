@@ -8,7 +8,7 @@ import pytest
 from ops.errors import ShotError
 from ops.geometry.snap import snap_into
 from ops.segmentation.bones import bone_radii, bone_regions, segment_distance, thick_regions
-from ops.segmentation.foreground import foreground_mask
+from ops.segmentation.foreground import segment_foreground
 from ops.segmentation.masks import build_masks
 from ops.segmentation.occlusion import predict_occlusion
 from ops.types import Skeleton
@@ -31,6 +31,18 @@ def capsule(shape: tuple[int, int], a, b, r: float) -> np.ndarray:
 def outline(m: np.ndarray) -> np.ndarray:
     """(H, W) bool one-pixel inner outline of a mask."""
     return m & ~cv2.erode(m.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def drawn(drawing: np.ndarray, pose: np.ndarray | None = None, skeleton: Skeleton | None = None) -> np.ndarray:
+    """(H, W) bool drawn silhouette: pixels the segmented character covers at least half.
+
+    Without a pose, one horizontal bone through the middle of the image (the ellipses below lie on it).
+    """
+    if pose is None:
+        h, w = drawing.shape[:2]
+        pose = np.array([[0.35 * w, 0.47 * h, 0], [0.65 * w, 0.47 * h, 0]])
+        skeleton = Skeleton(("a", "b"), np.array([-1, 0]))
+    return segment_foreground(drawing, pose, skeleton).coverage >= 0.5
 
 
 def ink_drawing(ink: np.ndarray) -> np.ndarray:
@@ -72,7 +84,7 @@ def test_outlined_ellipse_becomes_filled_silhouette(shade: float):
     ring = filled & ~cv2.erode(filled.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
     drawing = ink_drawing(ring)
     drawing *= 1.0 - shade * np.linspace(0, 1, 128, dtype=np.float32)[None, :, None]  # uneven lighting
-    fg = foreground_mask(drawing)
+    fg = drawn(drawing)
     assert iou(fg, filled) > 0.97
 
 
@@ -82,7 +94,7 @@ def test_gap_in_outline_closed_and_speck_dropped():
     ring[60:63, :] = False  # a 3-pixel gap on both sides of the outline
     ink = ring.copy()
     ink[5:8, 5:8] = True  # a speck of dirt far from the character
-    fg = foreground_mask(ink_drawing(ink))
+    fg = drawn(ink_drawing(ink))
     assert not fg[5:8, 5:8].any()
     assert iou(fg, filled) > 0.95
 
@@ -93,7 +105,7 @@ def test_alpha_is_composited_over_white():
     ring = outline(filled)
     rgba[ring] = (0.1, 0.1, 0.1, 1.0)
     rgba[filled & ~ring] = (1.0, 1.0, 1.0, 1.0)
-    fg = foreground_mask(rgba)
+    fg = drawn(rgba)
     assert iou(fg, filled) > 0.95
 
 
@@ -108,7 +120,7 @@ def test_segment_distance_matches_brute_force():
 
 def test_bone_radii_read_limb_thickness():
     drawing, pose, skeleton, _, _, _ = crossing_scene()
-    fg = foreground_mask(drawing)
+    fg = drawn(drawing, pose, skeleton)
     r = bone_radii(fg, pose, skeleton)
     assert abs(r[0] - 22) < 2.5  # torso
     assert abs(r[3] - 9) < 2.0  # forearm, despite lying half over the torso
@@ -116,7 +128,7 @@ def test_bone_radii_read_limb_thickness():
 
 def test_bone_regions_disjoint_and_thick_regions_overlap():
     drawing, pose, skeleton, true, _, _ = crossing_scene()
-    fg = foreground_mask(drawing)
+    fg = drawn(drawing, pose, skeleton)
     vor = bone_regions(fg, pose, skeleton)
     thick = thick_regions(fg, pose, skeleton)
     assert vor.sum(axis=0).max() <= 1  # Voronoi regions are disjoint
@@ -150,7 +162,7 @@ def test_equal_depths_predict_nothing_but_warn():
     drawing, pose, skeleton, _, _, _ = crossing_scene()
     flat = pose.copy()
     flat[:, 2] = 0.0
-    regions, fronts, warnings = predict_occlusion(foreground_mask(drawing), flat, skeleton)
+    regions, fronts, warnings = predict_occlusion(drawn(drawing, pose, skeleton), flat, skeleton)
     assert regions == [] and any("equal depth" in w for w in warnings)
 
 
@@ -179,7 +191,7 @@ def test_manual_occlusion_clipped_with_warning_and_front_bone():
 
 def test_manual_regions_sorted_back_to_front():
     drawing, pose, skeleton, true, torso, fore = crossing_scene()
-    fg = foreground_mask(drawing)
+    fg = build_masks(drawing, pose, skeleton).foreground
     front = true  # covered by the forearm (z = -1)
     back = torso & ~fore & fg
     back[:, :] &= np.arange(back.shape[0])[:, None] > 110  # lower torso only (z = 0)
@@ -196,7 +208,7 @@ def test_manual_mask_of_wrong_size_is_a_shot_error():
 def test_joint_slightly_outside_is_reported():
     drawing, pose, skeleton, _, _, _ = crossing_scene()
     moved = pose.copy()
-    moved[4, 0] = 40 - 9 - 3  # hand tip 3 px beyond the forearm's round end
+    moved[4, 0] = 40 - 9 - 5  # hand tip 5 px beyond the forearm's round end, 3 px beyond the mask's rim
     masks = build_masks(drawing, moved, skeleton)
     assert any("hand" in w and "slightly outside" in w for w in masks.warnings)
 
@@ -216,7 +228,7 @@ def test_snap_into_matches_brute_force():
 
 def test_bone_regions_and_thick_regions_match_brute_force():
     drawing, pose, skeleton, _, _, _ = crossing_scene(128)
-    fg = foreground_mask(drawing)
+    fg = drawn(drawing, pose, skeleton)
     ys, xs = np.mgrid[0:128, 0:128]
     grid = np.stack([xs, ys], -1).astype(float)
     ends = pose[:, :2][skeleton.bones]
@@ -231,10 +243,10 @@ def test_bone_regions_and_thick_regions_match_brute_force():
 
 def test_solid_ink_fill_is_foreground():
     filled = ellipse_mask((128, 128), (64, 60), (40, 28))
-    assert iou(foreground_mask(ink_drawing(filled)), filled) > 0.97
+    assert iou(drawn(ink_drawing(filled)), filled) > 0.97
 
 
 def test_opaque_rgba_drawing_uses_the_ink_not_the_alpha():
     filled = ellipse_mask((128, 128), (64, 60), (40, 28))
     rgba = np.concatenate([ink_drawing(outline(filled)), np.ones((128, 128, 1), np.float32)], axis=2)
-    assert iou(foreground_mask(rgba), filled) > 0.97
+    assert iou(drawn(rgba), filled) > 0.97

@@ -1,0 +1,154 @@
+"""The editor's two interactive numbers, measured through its HTTP API as the page calls it:
+
+1. live re-pose latency: one drag update = POST /api/repose with the pose after a 3 px pointer move, answered
+   with the template deformed into it (bounded warm-started solve + render at display size + HTTP, raw RGBA
+   as the page asks), over 100 drag updates (10 drags of 10 moves, each on another joint of an in-between
+   pose); and the settling update sent when each drag ends;
+2. save to refreshed frames after a key1 T-junction edit: PUT /api/shot, the background rerun, and every
+   output frame fetched again, as the page does when the rerun reports done.
+
+    python benchmarks/bench_editor.py [--shot data_samples/arm_cross] [--scale 1.0] [--home DIR] [--only repose|save]
+
+The shot is copied into a temporary folder and run cold once (printed too), so its templates are cached;
+the editor is then started as `python -m editor SHOT --port 0 --no-browser` in its own process, the way
+`inbetween edit` runs it. --home reuses a store from an earlier run of this benchmark (skips the cold run).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.request
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+JOINTS = ("r_hand", "l_hand", "r_elbow", "l_foot", "r_foot", "head", "l_elbow", "r_knee", "l_knee", "neck")
+
+
+def env_for(home: Path) -> dict:
+    return {**os.environ, "INBETWEEN_HOME": str(home), "DAGSTER_HOME": str(home / "dagster"),
+            "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))}
+
+
+def request(url: str, method: str = "GET", data=None):
+    body = json.dumps(data).encode() if data is not None else None
+    req = urllib.request.Request(url, data=body, method=method, headers={"Content-Type": "application/json"})
+    with urllib.request.urlopen(req, timeout=600) as r:
+        return r.read(), r.headers  # case-insensitive
+
+
+def percentiles(ms: list[float]) -> str:
+    return f"median {np.median(ms):6.1f} ms   p95 {np.percentile(ms, 95):6.1f} ms   max {max(ms):6.1f} ms"
+
+
+def repose_latency(url: str, shot: dict, drags: int, moves: int) -> None:
+    motion = json.loads(request(url + "/api/motion", "POST", {})[0])
+    i = len(motion["times"]) // 2
+    t, pose = motion["times"][i], np.asarray(motion["poses"][i])
+    names = shot["skeleton"]["joints"]
+    request(url + "/api/repose", "POST", {"k": 1, "t": t, "joints": pose.tolist(), "scale": 1.0})  # load + factorize
+    total, solve, render, iters, settle, cpu = [], [], [], [], [], []
+    rng = np.random.default_rng(0)
+    for d in range(drags):
+        j = names.index(JOINTS[d % len(JOINTS)]) if JOINTS[d % len(JOINTS)] in names else d % len(names)
+        direction = rng.normal(size=2)
+        direction *= 3.0 / np.linalg.norm(direction)  # a pointer move of 3 px per update
+        for _ in range(moves):
+            pose[j, :2] += direction
+            t0 = time.perf_counter()
+            _, headers = request(url + "/api/repose", "POST", {"k": 1, "t": t, "joints": pose.tolist(), "scale": 1.0,
+                                                               "settle": False, "format": "rgba"})  # as the page asks
+            total.append((time.perf_counter() - t0) * 1e3)
+            solve.append(float(headers["X-Solve-Ms"]))
+            render.append(float(headers["X-Render-Ms"]))
+            iters.append(int(headers["X-Iterations"]))
+            cpu.append(float(headers["X-Cpu-Ms"]))
+        t0 = time.perf_counter()  # pointer released: the settling update
+        request(url + "/api/repose", "POST", {"k": 1, "t": t, "joints": pose.tolist(), "scale": 1.0, "format": "rgba"})
+        settle.append((time.perf_counter() - t0) * 1e3)
+    print(f"live re-pose, {len(total)} drag updates at t = {t:.3f} on key1's template, rendered at the shot's size:")
+    print(f"  update (HTTP round trip)  {percentiles(total)}")
+    print(f"  solve (warm-started)      {percentiles(solve)}   iterations median {np.median(iters):.0f}")
+    print(f"  render                    {percentiles(render)}")
+    print(f"  CPU time of solve+render  {percentiles(cpu)}   (all threads of the server; a loaded machine "
+          "stretches the wall times above, not this)")
+    print(f"  settling update at the end of each of the {drags} drags: {percentiles(settle)}")
+
+
+def save_to_frames(url: str, shot_dir: Path) -> None:
+    shot = json.loads(request(url + "/api/shot")[0])
+    shot["t_junctions"][1][0][0] += 2.0
+    t0 = time.perf_counter()
+    request(url + "/api/shot", "PUT", shot)
+    t_put = time.perf_counter() - t0
+    while True:
+        status = json.loads(request(url + "/api/status")[0])
+        if status["state"] != "running":
+            break
+        time.sleep(0.1)
+    if status["state"] != "done":
+        raise SystemExit(f"the rerun failed: {status['error']}")
+    info = json.loads(request(url + "/api/frames")[0])
+    for i in range(info["count"]):
+        request(url + f"/api/frames/{i}.png?v={info['version']}")
+    total = time.perf_counter() - t0
+    ran = {n: s["seconds"] for n, s in status["stages"].items() if not s["cached"]}
+    print(f"save -> refreshed frames after moving a key1 T-junction by 2 px: {total:.1f} s "
+          f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s)")
+    print(f"  stages re-run: {len(ran)} of {len(status['stages'])}, stage seconds {sum(ran.values()):.1f}: "
+          + ", ".join(f"{n} {s:.2f}" for n, s in ran.items()))
+
+
+def main() -> None:
+    print(f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs at the start")
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--shot", default=str(ROOT / "data_samples" / "arm_cross"))
+    ap.add_argument("--scale", type=float, default=1.0, help="resize the shot first (1.0: as is, 384 px for arm_cross)")
+    ap.add_argument("--home", default=None, help="reuse this benchmark's folder from an earlier run")
+    ap.add_argument("--drags", type=int, default=10)
+    ap.add_argument("--moves", type=int, default=10)
+    ap.add_argument("--only", choices=["repose", "save"], default=None)
+    args = ap.parse_args()
+    base = Path(args.home) if args.home else Path(tempfile.mkdtemp(prefix="bench_editor-"))
+    shot_dir, home = base / "shots" / Path(args.shot).name, base / "home"
+    if not shot_dir.exists():
+        if args.scale != 1.0:
+            sys.path.insert(0, str(ROOT))
+            from tests.assets.conftest import scaled_copy
+
+            scaled_copy(Path(args.shot), shot_dir, args.scale)
+        else:
+            shutil.copytree(args.shot, shot_dir)
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "assets.cli", "run", str(shot_dir), "--out", str(base / "out")],
+                       env=env_for(home), cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+        print(f"cold run of {shot_dir.name} (to fill the store): {time.perf_counter() - t0:.1f} s")
+    from ops.shotio.image_io import image_size
+
+    h, w = image_size(shot_dir / "key0.png")
+    print(f"shot {shot_dir.name}, {w}x{h} px, {os.cpu_count()} CPUs; folder {base}")
+    proc = subprocess.Popen([sys.executable, "-m", "editor", str(shot_dir), "--port", "0", "--no-browser"],
+                            env=env_for(home), cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        url = re.search(r"http://127\.0\.0\.1:\d+", proc.stdout.readline()).group(0)
+        shot = json.loads(request(url + "/api/shot")[0])
+        if args.only in (None, "repose"):
+            repose_latency(url, shot, args.drags, args.moves)
+        if args.only in (None, "save"):
+            save_to_frames(url, shot_dir)
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(30)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,408 @@
+"""The JSON API under /api (README "The editor"): thin handlers over editor/state.py and the run machinery.
+
+Every error is a JSON object {"error": "<one line>", "field": "<shot.json field or null>"}: the CLI's
+ShotError message for bad input, so the page can show it next to the item the field names.
+"""
+from __future__ import annotations
+
+import asyncio
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response, StreamingResponse
+from starlette.routing import Route
+
+from assets.graph import PARENTS, SOURCES, STAGES
+from assets.runs import plan
+from ops.errors import ShotError
+from ops.preview import to_png_bytes
+from ops.shotio.image_io import image_size, read_image, to_rgba
+from ops.shotio.interpolate import resample_poses
+from ops.shotio.load import load_shot, parse_poses, parse_skeleton, read_shot_json
+
+from .layers import refined_json
+from .maskfiles import check_name, decode_mask, encode_mask
+from .repose import png_bytes
+from .shotfile import keyframe_names, referenced_files, save, validate
+from .state import EditorState
+
+PNG = "image/png"
+NO_STORE = {"Cache-Control": "no-store"}
+
+
+def _ed(request: Request) -> EditorState:
+    return request.app.state.editor
+
+
+def _error(e: ShotError | str, status: int = 400) -> JSONResponse:
+    if isinstance(e, ShotError):
+        return JSONResponse({"error": str(e), "field": e.field}, status)
+    return JSONResponse({"error": e, "field": None}, status)
+
+
+def _png(data: bytes | None, what: str) -> Response:
+    return Response(data, media_type=PNG, headers=NO_STORE) if data is not None else _error(f"no {what} yet", 404)
+
+
+async def _call(fn, *args):
+    """Run blocking work off the event loop; bad input becomes a 400 with the one-line message."""
+    try:
+        return await run_in_threadpool(fn, *args)
+    except ShotError as e:
+        return _error(e)
+
+
+def _key(request: Request) -> int:
+    k = request.path_params["k"]
+    if k not in (0, 1):
+        raise ShotError("request", "k", f"keyframe {k} does not exist", "use 0 or 1")
+    return k
+
+
+def _saved(ed: EditorState) -> dict:
+    return read_shot_json(ed.shot_dir)[1]
+
+
+def _size(ed: EditorState) -> tuple[int, int]:
+    """(H, W) of keyframe 0 of the saved shot (ShotError when it cannot be read)."""
+    data = _saved(ed)
+    names = keyframe_names(data)
+    if not names:
+        raise ShotError(ed.shot_dir / "shot.json", "keyframes", "names no image", 'write "keyframes": ["key0.png", "key1.png"]')
+    return image_size(ed.shot_dir / names[0], "keyframes[0]")
+
+
+# ---------------------------------------------------------------- the shot and its saving
+
+
+async def info(request: Request) -> Response:
+    ed = _ed(request)
+
+    def work():
+        try:
+            size = list(_size(ed))
+        except ShotError:
+            size = None
+        return JSONResponse({"shot_dir": str(ed.shot_dir), "partition": ed.partition, "size": size,
+                             "out_dir": str(ed.reruns.out_dir), "stages": list(STAGES),
+                             "parents": {n: list(p) for n, p in PARENTS.items()}, "sources": list(SOURCES)})
+
+    return await _call(work)
+
+
+def _etag(ed: EditorState) -> str:
+    """Version of shot.json on disk: a PUT carrying another one (If-Match) would overwrite someone else's edit."""
+    return '"' + hashlib.sha256((ed.shot_dir / "shot.json").read_bytes()).hexdigest()[:20] + '"'
+
+
+async def get_shot(request: Request) -> Response:
+    ed = _ed(request)
+    return await _call(lambda: JSONResponse(_saved(ed), headers={**NO_STORE, "ETag": _etag(ed)}))
+
+
+async def put_shot(request: Request) -> Response:
+    """Validate the whole shot.json object; write it (and the staged masks it names) and queue its rerun."""
+    ed = _ed(request)
+    try:
+        data = json.loads(await request.body())
+    except ValueError as e:
+        return _error(ShotError(ed.shot_dir / "shot.json", "shot.json", f"the request body is not JSON ({e})",
+                                "send the whole shot.json object"))
+
+    def work():
+        with ed.save_lock:
+            expected = request.headers.get("if-match")
+            if expected is not None and expected != _etag(ed):
+                return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
+                              "fix: reload the page (saving would overwrite that change)", 409)
+            staged = ed.staging.snapshot()
+            validate(ed.shot_dir, data, staged, ed.scratch)
+            written = save(ed.shot_dir, data, staged)
+            ed.staging.discard(written, only_if=staged)
+            ed.reruns.request("save")  # from here on /api/status reports this save's rerun
+            return JSONResponse({"ok": True}, headers={"ETag": _etag(ed)})
+
+    return await _call(work)
+
+
+async def run(request: Request) -> Response:
+    """Rerun the saved shot without a change (the page's Run button)."""
+    ed = _ed(request)
+
+    def work():
+        load_shot(ed.shot_dir)
+        ed.reruns.request("run")
+        return JSONResponse({"ok": True})
+
+    return await _call(work)
+
+
+async def status(request: Request) -> Response:
+    return JSONResponse(_ed(request).reruns.snapshot()[1], headers=NO_STORE)
+
+
+async def events(request: Request) -> Response:
+    """Server-sent events: the status object each time it changes (a comment every 15 s keeps proxies open)."""
+    ed = _ed(request)
+
+    async def stream():
+        last, quiet = -1, 0.0
+        while not await request.is_disconnected():
+            version, snap = ed.reruns.snapshot()
+            if version != last:
+                last, quiet = version, 0.0
+                yield f"data: {json.dumps(snap)}\n\n"
+            elif quiet > 15:
+                quiet = 0.0
+                yield ": keep-alive\n\n"
+            await asyncio.sleep(0.2)
+            quiet += 0.2
+
+    return StreamingResponse(stream(), media_type="text/event-stream", headers=NO_STORE)
+
+
+async def get_plan(request: Request) -> Response:
+    """Status of every stage for the saved shot: fresh, or stale / missing with the causes."""
+    ed = _ed(request)
+
+    def work():
+        p = plan(ed.shot_dir, ed.settings)
+        return JSONResponse({"stages": {n: {"state": s.state, "causes": s.causes} for n, s in p.statuses.items()}})
+
+    return await _call(work)
+
+
+# ---------------------------------------------------------------- images and masks
+
+
+async def keyframe(request: Request) -> Response:
+    ed = _ed(request)
+
+    def work():
+        k = _key(request)
+        names = keyframe_names(_saved(ed))
+        if len(names) != 2:
+            raise ShotError(ed.shot_dir / "shot.json", "keyframes", "must list exactly two images", "fix keyframes")
+        img = read_image(ed.shot_dir / names[k], f"keyframes[{k}]")
+        return Response(to_png_bytes(to_rgba(img)), media_type=PNG, headers=NO_STORE)
+
+    return await _call(work)
+
+
+async def get_mask(request: Request) -> Response:
+    """A manual mask as 8-bit grey PNG (255 = inside): the staged upload, else the file the saved shot names."""
+    ed = _ed(request)
+    name = request.path_params["name"]
+
+    def work():
+        staged = ed.staging.get(name)
+        if staged is not None:
+            return Response(staged, media_type=PNG, headers=NO_STORE)
+        data = _saved(ed)
+        if name not in referenced_files(data) or name in keyframe_names(data):
+            return _error(f"{name}: no staged upload and the saved shot.json names no such mask", 404)
+        img = read_image(ed.shot_dir / name, "masks")
+        # the masks stage's reading rule: light, and opaque where there is alpha
+        inside = img[..., 0] > 0.5 if img.shape[2] < 4 else (img[..., 0] > 0.5) & (img[..., 3] > 0.5)
+        return Response(encode_mask(inside), media_type=PNG, headers=NO_STORE)
+
+    return await _call(work)
+
+
+async def put_mask(request: Request) -> Response:
+    """Stage a mask upload (any PNG; normalized to 8-bit 0/255); a later PUT /api/shot that names it writes it."""
+    ed = _ed(request)
+    name = request.path_params["name"]
+    body = await request.body()
+
+    def work():
+        check_name(name, set(keyframe_names(_saved(ed))))
+        png = encode_mask(decode_mask(body, _size(ed), name))
+        ed.staging.put(name, png)
+        return JSONResponse({"ok": True, "name": name})
+
+    return await _call(work)
+
+
+async def predicted(request: Request) -> Response:
+    """{"regions", "source"} of keyframe k's predicted masks; the masks themselves are PNG sub-resources."""
+    ed = _ed(request)
+
+    def work():
+        masks, source = ed.predictions.get(ed.shot_dir, _key(request))
+        return JSONResponse({"regions": len(masks.occlusion), "source": source, "warnings": masks.warnings})
+
+    return await _call(work)
+
+
+def _mask_layer(masks, layer: str, i: int | None) -> np.ndarray | None:
+    if layer == "foreground":
+        return masks.foreground
+    return masks.occlusion[i] if i is not None and 0 <= i < len(masks.occlusion) else None
+
+
+async def predicted_png(request: Request) -> Response:
+    ed = _ed(request)
+
+    def work():
+        masks, _ = ed.predictions.get(ed.shot_dir, _key(request))
+        m = _mask_layer(masks, request.path_params["layer"], request.path_params.get("i"))
+        return _png(encode_mask(m) if m is not None else None, "such predicted region")
+
+    return await _call(work)
+
+
+async def refined(request: Request) -> Response:
+    """Keyframe k's refined masks from the store: boundaries and snapped T-junctions (pixels), or 404."""
+    ed = _ed(request)
+
+    def work():
+        name = f"key{_key(request)}/refined_masks"
+        version = ed.store.hash(name, ed.partition)
+        if version is None:
+            return _error("the refined masks have not been computed yet; save or run", 404)
+        return JSONResponse({"version": version, **refined_json(ed.store.read(name, ed.partition))})
+
+    return await _call(work)
+
+
+async def refined_png(request: Request) -> Response:
+    ed = _ed(request)
+
+    def work():
+        name = f"key{_key(request)}/refined_masks"
+        if ed.store.hash(name, ed.partition) is None:
+            return _png(None, "refined masks")
+        m = _mask_layer(ed.store.read(name, ed.partition), request.path_params["layer"], request.path_params.get("i"))
+        return _png(encode_mask(m) if m is not None else None, "such refined region")
+
+    return await _call(work)
+
+
+# ---------------------------------------------------------------- motion and live re-pose
+
+
+async def motion(request: Request) -> Response:
+    """Poses at times: body {"shot": shot.json object (default: the saved one), "times": [t, ...] (default:
+    the output times)} -> {"times", "poses" (T, J, 3), "given_times"}; interpolated per bone like the loader."""
+    ed = _ed(request)
+    body = json.loads(await request.body() or b"{}")
+
+    def work():
+        data = body.get("shot") or _saved(ed)
+        file = ed.shot_dir / "shot.json"
+        skeleton = parse_skeleton(data, file)
+        given_t, given = parse_poses(data, file, skeleton)
+        frames = data.get("frames")
+        times = body.get("times")
+        if times is None:
+            times = np.linspace(0.0, 1.0, frames) if isinstance(frames, int) and frames >= 2 else given_t
+        times = np.clip(np.asarray(times, float), 0.0, 1.0)
+        poses = resample_poses(given_t, given, times, skeleton.parents)
+        return JSONResponse({"times": times.tolist(), "poses": np.round(poses, 4).tolist(),
+                             "given_times": given_t.tolist()})
+
+    return await _call(work)
+
+
+async def repose(request: Request) -> Response:
+    """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1), "settle":
+    bool (false while a drag goes on: a bounded solve), "format": "png" | "rgba"} -> keyframe k's textured
+    template deformed into that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers;
+    the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
+    ed = _ed(request)
+    body = json.loads(await request.body())
+
+    def work():
+        k = int(body.get("k", 0))
+        if k not in (0, 1):
+            raise ShotError("request", "k", f"keyframe {k} does not exist", "use 0 or 1")
+        reposer = ed.reposers.get(k)
+        if reposer is None:
+            return _error(f"key{k}/textured_template has not been computed yet; run the shot first", 409)
+        pose = np.asarray(body["joints"], float)
+        if pose.ndim != 2 or pose.shape[1] != 3 or not np.isfinite(pose).all():
+            raise ShotError("request", "joints", "must be finite [x, y, z] per joint", "send one [x, y, z] per joint")
+        if len(pose) != reposer.textured.template.handle_weights.shape[1]:
+            return _error("the skeleton changed since the template was built; save and rerun first", 409)
+        scale = float(np.clip(body.get("scale", 1.0), 0.05, 1.0))
+        res = reposer.update(pose, float(body.get("t", 0.5)), scale, settle=bool(body.get("settle", True)))
+        h, w = res.image.shape[:2]
+        headers = {**NO_STORE, "X-Solve-Ms": f"{res.solve_ms:.1f}", "X-Render-Ms": f"{res.render_ms:.1f}",
+                   "X-Iterations": str(res.iterations), "X-Cpu-Ms": f"{res.cpu_ms:.1f}", "X-Width": str(w),
+                   "X-Height": str(h)}
+        if body.get("format") == "rgba":
+            return Response(res.image.tobytes(), media_type="application/octet-stream", headers=headers)
+        return Response(png_bytes(res.image), media_type=PNG, headers=headers)
+
+    return await _call(work)
+
+
+# ---------------------------------------------------------------- results
+
+
+async def frames(request: Request) -> Response:
+    got = await run_in_threadpool(_ed(request).results.frames_info)
+    return JSONResponse(got, headers=NO_STORE) if got else _error("no frames yet; save or run", 404)
+
+
+async def frame_png(request: Request) -> Response:
+    i = request.path_params["i"]
+    return _png(await run_in_threadpool(_ed(request).results.frame_png, i), f"frame {i}")
+
+
+async def matrix(request: Request) -> Response:
+    got = await run_in_threadpool(_ed(request).results.paths_info)
+    return JSONResponse(got, headers=NO_STORE) if got else _error("no image matrix yet; save or run", 404)
+
+
+async def matrix_png(request: Request) -> Response:
+    thumb = int(np.clip(int(request.query_params.get("thumb", 64)), 16, 256))
+    return _png(await run_in_threadpool(_ed(request).results.matrix_png, thumb), "image matrix")
+
+
+async def previews(request: Request) -> Response:
+    ed = _ed(request)
+    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in STAGES],
+                        headers=NO_STORE)
+
+
+async def preview_png(request: Request) -> Response:
+    ed = _ed(request)
+    stage = request.path_params["stage"].removesuffix(".png")
+    if stage not in STAGES:
+        return _error(f"no stage {stage!r}", 404)
+    path: Path = ed.store.preview_path(stage, ed.partition)
+    return _png(path.read_bytes() if path.is_file() else None, f"preview of {stage}")
+
+
+ROUTES = [
+    Route("/api/info", info),
+    Route("/api/shot", get_shot, methods=["GET"]),
+    Route("/api/shot", put_shot, methods=["PUT"]),
+    Route("/api/run", run, methods=["POST"]),
+    Route("/api/status", status),
+    Route("/api/events", events),
+    Route("/api/plan", get_plan),
+    Route("/api/keyframes/{k:int}.png", keyframe),
+    Route("/api/masks/{name:path}", get_mask, methods=["GET"]),
+    Route("/api/masks/{name:path}", put_mask, methods=["PUT"]),
+    Route("/api/predicted/{k:int}", predicted),
+    Route("/api/predicted/{k:int}/{layer:str}.png", predicted_png),
+    Route("/api/predicted/{k:int}/{layer:str}/{i:int}.png", predicted_png),
+    Route("/api/refined/{k:int}", refined),
+    Route("/api/refined/{k:int}/{layer:str}.png", refined_png),
+    Route("/api/refined/{k:int}/{layer:str}/{i:int}.png", refined_png),
+    Route("/api/motion", motion, methods=["POST"]),
+    Route("/api/repose", repose, methods=["POST"]),
+    Route("/api/frames", frames),
+    Route("/api/frames/{i:int}.png", frame_png),
+    Route("/api/matrix", matrix),
+    Route("/api/matrix.png", matrix_png),
+    Route("/api/previews", previews),
+    Route("/api/previews/{stage:path}", preview_png),
+]

@@ -1,0 +1,487 @@
+// The editor page: loads the shot, wires the three views, the rerun panel, undo/redo, saving and the keyboard.
+
+import { ApiError, getJSON, getVersioned, loadImage, putPNG, putVersioned, sendJSON } from './api.js';
+import { Doc, History } from './doc.js';
+import { actionFor, renderHelp } from './help.js';
+import { KeyView } from './keyview.js';
+import { MaskLayer, layerFromUrl, regionColour, FOREGROUND_COLOUR } from './masks.js';
+import { PoseView } from './pose.js';
+import { ResultsView } from './results.js';
+import { StagesPanel, followStatus } from './stages.js';
+
+const OVERLAYS = [
+  ['drawing', 'Drawing', true], ['skeleton', 'Skeleton', true], ['tjunctions', 'T-junctions', true],
+  ['manual', 'Manual masks', true], ['predicted', 'Predicted masks', false], ['refined', 'Refined masks', false],
+  ['boundaries', 'Refined boundaries', true],
+];
+const $ = (id) => document.getElementById(id);
+
+class App {
+  async boot() {
+    this.info = await getJSON('/api/info');
+    const { data: shot, etag } = await getVersioned('/api/shot');
+    this.etag = etag;  // a save refuses to overwrite a shot.json changed on disk since
+    $('shot-name').textContent = this.info.shot_dir;
+    if (!this.info.size) throw new Error('the keyframes cannot be read: fix keyframes in shot.json');
+    this.doc = new Doc(shot, this.info.size);
+    // an edit after a refused save clears its message: the user is fixing it (Save shows it again if not)
+    this.history = new History(this.doc, () => { if (this.errorItem) this.clearError(); this.changed(); });
+    this.tool = 'select';
+    this.brush = 8;
+    this.overlays = new Set(OVERLAYS.filter((o) => o[2]).map((o) => o[0]));
+    this.activeLayer = [null, null];
+    this.focusedKey = 1;
+    this.selected = null;
+    this.errorItem = null;
+    this.drawings = [null, null];
+    this.predicted = [null, null];
+    this.refined = [null, null];
+    this.plan = null;
+    this.status = null;
+    this.stages = new StagesPanel(this.info);
+    this.keys = [...document.querySelectorAll('.keypane')].map((pane) => new KeyView(+pane.dataset.k, pane, this));
+    this.results = new ResultsView(this);
+    this.pose = new PoseView(this);
+    this._wire();
+    await Promise.all([0, 1].map((k) => this._loadKey(k)));
+    await this._loadManualMasks();
+    this.activeLayer = [0, 1].map((k) => (this.doc.structure[k].occ.length ? 0 : 'fg'));
+    this.changed();
+    this.keys.forEach((v) => v.fit());
+    followStatus((st) => this.onStatus(st));
+    this.refreshPlan();
+    this.results.refresh();
+    document.body.dataset.ready = '1';
+  }
+
+  // ---------------------------------------------------------------- loading
+
+  async _loadKey(k) {
+    this.drawings[k] = await loadImage(`/api/keyframes/${k}.png?v=${Date.now()}`).catch(() => null);
+    await Promise.all([this._loadPredicted(k), this._loadRefined(k)]);
+  }
+
+  async _loadPredicted(k) {
+    const [H, W] = this.doc.size;
+    try {
+      const p = await getJSON(`/api/predicted/${k}`);
+      const fg = await layerFromUrl(`/api/predicted/${k}/foreground.png?v=${Date.now()}`, W, H);
+      const occ = await Promise.all([...Array(p.regions).keys()].map((i) => layerFromUrl(`/api/predicted/${k}/occlusion/${i}.png?v=${Date.now()}`, W, H)));
+      this.predicted[k] = { fg, occ };
+    } catch {
+      this.predicted[k] = null;
+    }
+  }
+
+  async _loadRefined(k) {
+    const [H, W] = this.doc.size;
+    try {
+      const json = await getJSON(`/api/refined/${k}`);
+      const occ = await Promise.all([...Array(json.regions).keys()].map((i) => layerFromUrl(`/api/refined/${k}/occlusion/${i}.png?v=${json.version}`, W, H)));
+      this.refined[k] = { json, occ };
+    } catch {
+      this.refined[k] = null;
+    }
+  }
+
+  async _loadManualMasks() {
+    const [H, W] = this.doc.size;
+    const masks = this.doc.shot.masks || {};
+    const load = async (name) => {
+      let layer;
+      try {
+        layer = await layerFromUrl(`/api/masks/${encodeURI(name)}?v=${Date.now()}`, W, H, name);
+        this.doc.fileOwner.set(name, layer.id);
+      } catch {
+        // named by shot.json but unreadable: listed (empty, flagged) so it can be repainted or deleted
+        layer = new MaskLayer(W, H, name);
+        layer.missing = true;
+      }
+      return this.doc.addLayer(layer);
+    };
+    for (const k of [0, 1]) {
+      const fg = masks.foreground?.[k];
+      this.doc.structure[k].fg = fg ? await load(fg) : null;
+      this.doc.structure[k].occ = await Promise.all((masks.occlusion?.[k] || []).map(load));
+    }
+  }
+
+  // ---------------------------------------------------------------- state changes
+
+  /** After any edit: redraw, and update the panels that depend on the document. */
+  changed(full = true) {
+    this.redraw();
+    if (!full) { this._inspector(); return; }
+    $('undo').disabled = !this.history.done.length;
+    $('redo').disabled = !this.history.undone.length;
+    const dirty = this.doc.isDirty();
+    $('dirty').textContent = dirty ? 'unsaved changes' : '';
+    $('save').dataset.dirty = dirty ? '1' : '';
+    this.stages.setWillRun(dirty ? this.stages.downstream(this.doc.changedSources()) : new Set());
+    this._layers();
+    this._inspector();
+  }
+
+  redraw() { this.keys.forEach((v) => v.draw()); }
+
+  edit(label, fn) {
+    this.history.begin(label);
+    fn();
+    this.history.commit();
+    this.changed();
+  }
+
+  select(sel) {
+    this.selected = sel;
+    this._inspector();
+    this.redraw();
+  }
+
+  focusKey(k) {
+    this.focusedKey = k;
+    document.querySelectorAll('.keypane').forEach((p) => p.classList.toggle('focus', +p.dataset.k === k));
+    if (+$('mask-key').value !== k) { $('mask-key').value = String(k); this._layers(); }
+  }
+
+  /** Depth by wheel: consecutive notches on one joint make one undo step. */
+  wheelDepth(k, j, step) {
+    const idx = this.doc.keyPoseIndex(k);
+    const same = this._wheel && this._wheel.k === k && this._wheel.j === j && this.history.open === this._wheel.tx;
+    if (!same) this._wheel = { k, j, tx: this.history.begin('joint depth') };
+    const joint = this.doc.shot.poses[idx].joints[j];
+    joint[2] = Math.round((joint[2] + step) * 1000) / 1000;
+    clearTimeout(this._wheelTimer);
+    this._wheelTimer = setTimeout(() => { if (this.history.open === this._wheel.tx) { this.history.commit(); this.changed(); } }, 600);
+    this.changed(false);
+  }
+
+  // ---------------------------------------------------------------- masks
+
+  /** The layer a brush stroke on keyframe k paints, created inside transaction tx when needed. */
+  brushLayer(k, tx) {
+    const s = this.doc.structure[k];
+    const [H, W] = this.doc.size;
+    const active = this.activeLayer[k];
+    if (active === 'fg') {
+      if (!s.fg) {
+        // a foreground painted from scratch would be almost empty: start from the predicted one
+        const layer = new MaskLayer(W, H);
+        if (this.predicted[k]) layer.copyFrom(this.predicted[k].fg);
+        s.fg = this.doc.addLayer(layer);
+        this.flash(this.predicted[k] ? 'foreground started from the prediction' : 'no prediction: foreground starts empty');
+      }
+      return this.doc.layer(s.fg);
+    }
+    if (typeof active === 'number' && s.occ[active]) return this.doc.layer(s.occ[active]);
+    this.newRegion(k, tx);
+    return this.doc.layer(s.occ[s.occ.length - 1]);
+  }
+
+  newRegion(k, tx = null) {
+    const own = !tx;
+    if (own) this.history.begin('new region');
+    const [H, W] = this.doc.size;
+    this.doc.structure[k].occ.push(this.doc.addLayer(new MaskLayer(W, H)));
+    this.activeLayer[k] = this.doc.structure[k].occ.length - 1;
+    if (own) { this.history.commit(); this.changed(); }
+  }
+
+  fromPrediction(k) {
+    const p = this.predicted[k];
+    if (!p) { this.flash('no prediction available'); return; }
+    const [H, W] = this.doc.size;
+    const copy = (src) => { const l = new MaskLayer(W, H); l.copyFrom(src); return this.doc.addLayer(l); };
+    this.edit('start from the prediction', () => {
+      this.doc.structure[k] = { fg: copy(p.fg), occ: p.occ.map(copy) };
+      this.activeLayer[k] = p.occ.length ? 0 : 'fg';
+    });
+  }
+
+  deleteLayer(k, kind, index) {
+    this.edit(kind === 'fg' ? 'remove manual foreground' : 'delete region', () => {
+      if (kind === 'fg') this.doc.structure[k].fg = null;
+      else this.doc.structure[k].occ.splice(index, 1);
+    });
+    const n = this.doc.structure[k].occ.length;
+    if (typeof this.activeLayer[k] === 'number' && this.activeLayer[k] >= n) this.activeLayer[k] = n ? n - 1 : 'fg';
+    this._layers();
+  }
+
+  _layers() {
+    const k = +$('mask-key').value;
+    const s = this.doc.structure[k];
+    const rows = [];
+    const row = (colour, text, active, onPick, onDelete, field) => {
+      const div = document.createElement('div');
+      div.className = `layer${active ? ' active' : ''}`;
+      div.dataset.field = field;
+      if (this.errorItem && this.errorItem.field === field) div.classList.add('error');
+      const sw = document.createElement('span');
+      sw.className = 'sw'; sw.style.background = colour;
+      const name = document.createElement('span');
+      name.className = 'name'; name.textContent = text; name.title = text;
+      div.append(sw, name);
+      div.addEventListener('click', onPick);
+      if (onDelete) {
+        const del = document.createElement('button');
+        del.textContent = '×'; del.title = 'delete this manual mask';
+        del.addEventListener('click', (e) => { e.stopPropagation(); onDelete(); });
+        div.append(del);
+      }
+      rows.push(div);
+    };
+    const pick = (v) => () => { this.activeLayer[k] = v; this._layers(); };
+    const label = (id) => { const l = this.doc.layer(id); return `${l.name || 'new'}${l.missing ? ' (missing)' : ''}`; };
+    row(FOREGROUND_COLOUR, s.fg ? `foreground · ${label(s.fg)}` : 'foreground · predicted',
+      this.activeLayer[k] === 'fg', pick('fg'), s.fg ? () => this.deleteLayer(k, 'fg') : null, `masks.foreground[${k}]`);
+    s.occ.forEach((id, i) => row(regionColour(i), `region ${i} · ${label(id)}`,
+      this.activeLayer[k] === i, pick(i), () => this.deleteLayer(k, 'occ', i), `masks.occlusion[${k}][${i}]`));
+    if (!s.occ.length) {
+      const n = this.predicted[k] ? this.predicted[k].occ.length : 0;
+      const div = document.createElement('div');
+      div.className = 'muted small';
+      div.textContent = `occlusion: predicted (${n} region${n === 1 ? '' : 's'}); a new region replaces the prediction`;
+      rows.push(div);
+    }
+    $('layers').replaceChildren(...rows);
+  }
+
+  // ---------------------------------------------------------------- joint inspector
+
+  _inspector() {
+    const el = $('inspector');
+    const sel = this.selected;
+    if (!sel || sel.kind !== 'joint') {
+      el.className = 'muted';
+      el.textContent = sel && sel.kind === 'tj' ? `T-junction ${sel.index} of key${sel.k} (Delete removes it)` : 'Click a joint.';
+      return;
+    }
+    const idx = this.doc.keyPoseIndex(sel.k);
+    const joint = this.doc.shot.poses[idx].joints[sel.index];
+    if (!joint) { el.textContent = ''; return; }
+    const active = document.activeElement;
+    if (active && active.closest && active.closest('#inspector')) return;  // do not rebuild under the user's typing
+    el.className = '';
+    el.replaceChildren();
+    const title = document.createElement('div');
+    title.textContent = `${this.doc.shot.skeleton.joints[sel.index]} · key${sel.k} (poses[${idx}])`;
+    el.append(title);
+    ['x', 'y', 'z'].forEach((axis, a) => {
+      const label = document.createElement('label');
+      label.className = 'row';
+      const input = document.createElement('input');
+      input.type = 'number'; input.step = a === 2 ? '0.1' : '1'; input.value = String(joint[a]);
+      input.id = `joint-${axis}`;
+      input.addEventListener('change', () => {
+        const v = parseFloat(input.value);
+        if (!Number.isFinite(v)) return;
+        this.edit(`joint ${axis}`, () => { this.doc.shot.poses[idx].joints[sel.index][a] = v; });
+      });
+      label.append(`${axis} `, input);
+      el.append(label);
+    });
+  }
+
+  // ---------------------------------------------------------------- saving and reruns
+
+  async save() {
+    this.history.commit();
+    this.doc.assignNames();
+    this.clearError();
+    $('save').disabled = true;
+    try {
+      const uploads = this.doc.toUpload();
+      for (const layer of uploads) await putPNG(`/api/masks/${encodeURI(layer.name)}`, await layer.toBlob());
+      const shot = this.doc.toShot();
+      this.etag = await putVersioned('/api/shot', shot, this.etag);
+      this.doc.markSaved(shot, uploads);
+      this.flash('saved; rerunning');
+      this.changed();
+    } catch (e) {
+      if (e instanceof ApiError) this.showError(e.message, e.field);
+      else this.showError(`save failed: ${e.message}`, null);
+    } finally {
+      $('save').disabled = false;
+    }
+  }
+
+  async run() {
+    try { await sendJSON('POST', '/api/run', {}); } catch (e) { this.showError(e.message, e.field); }
+  }
+
+  async refreshPlan() {
+    try {
+      this.plan = await getJSON('/api/plan');
+      this.stages.setPlan(this.plan);
+    } catch (e) {
+      if (e instanceof ApiError && e.status === 400) this.showError(e.message, e.field);
+    }
+  }
+
+  stale(stage) { return !!(this.plan && this.plan.stages[stage] && this.plan.stages[stage].state !== 'fresh'); }
+
+  async onStatus(st) {
+    const prev = this.status;
+    this.status = st;
+    this.stages.setStatus(st);
+    const finished = st.state !== 'running' && (!prev || prev.state === 'running' || prev.seq !== st.seq);
+    if (finished && prev) {
+      await this.refreshPlan();
+      await Promise.all([0, 1].map((k) => this._loadKey(k)));
+      await this.results.refresh();
+      this.redraw();
+      this._layers();
+    }
+  }
+
+  // ---------------------------------------------------------------- errors and messages
+
+  /** Show a save error in the bar, and next to the item its field names (joint, T-junction, mask layer). */
+  showError(message, field) {
+    const bar = $('error-bar');
+    bar.hidden = false;
+    bar.textContent = message;
+    bar.dataset.field = field || '';
+    const short = field && message.includes(`${field}: `) ? message.split(`${field}: `).slice(1).join(`${field}: `) : message;
+    this.errorItem = { field, message: short };
+    let m;
+    if (field && (m = field.match(/^poses\[(\d+)\]\.joints(?:\[(\d+)\])?/))) {
+      const i = +m[1];
+      const k = i === 0 ? 0 : i === this.doc.shot.poses.length - 1 ? 1 : null;
+      if (k !== null) Object.assign(this.errorItem, { k, kind: 'joint', pose: i, index: m[2] === undefined ? 0 : +m[2] });
+      this._showView('annotate');
+    } else if (field && (m = field.match(/^t_junctions\[(\d)\](?:\[(\d+)\])?/))) {
+      Object.assign(this.errorItem, { k: +m[1], kind: 'tj', index: m[2] === undefined ? 0 : +m[2] });
+      this._showView('annotate');
+    } else if (field && (m = field.match(/^masks\.(?:foreground|occlusion)\[(\d)\]/))) {
+      $('mask-key').value = m[1];
+      this._showView('annotate');
+    }
+    this._layers();
+    this.redraw();
+  }
+
+  clearError() {
+    $('error-bar').hidden = true;
+    this.errorItem = null;
+    this._layers();
+    this.redraw();
+  }
+
+  flash(text) {
+    $('dirty').textContent = text;
+    clearTimeout(this._flashTimer);
+    this._flashTimer = setTimeout(() => this.changed(), 2500);
+  }
+
+  // ---------------------------------------------------------------- wiring
+
+  _showView(name) {
+    document.querySelectorAll('.tab').forEach((t) => t.classList.toggle('active', t.dataset.view === name));
+    document.querySelectorAll('.view').forEach((v) => { v.hidden = v.id !== `view-${name}`; });
+    this.view = name;
+    if (name === 'annotate') this.keys.forEach((v) => v.draw());
+    if (name === 'pose') this.pose.enter();
+    if (name === 'results') this.results.draw();
+  }
+
+  setTool(tool) {
+    this.tool = tool;
+    document.querySelectorAll('#tools button').forEach((b) => b.classList.toggle('active', b.dataset.tool === tool));
+    this.redraw();
+  }
+
+  setBrush(r) {
+    this.brush = Math.max(1, Math.min(60, r));
+    $('brush').value = String(this.brush);
+    $('brush-size').textContent = String(this.brush);
+  }
+
+  _wire() {
+    this.view = 'annotate';
+    document.querySelectorAll('.tab').forEach((t) => t.addEventListener('click', () => this._showView(t.dataset.view)));
+    document.querySelectorAll('#tools button').forEach((b) => b.addEventListener('click', () => this.setTool(b.dataset.tool)));
+    $('brush').addEventListener('input', () => this.setBrush(+$('brush').value));
+    $('overlays').replaceChildren(...OVERLAYS.map(([key, label]) => {
+      const l = document.createElement('label');
+      const box = document.createElement('input');
+      box.type = 'checkbox'; box.checked = this.overlays.has(key); box.dataset.overlay = key;
+      box.addEventListener('change', () => { box.checked ? this.overlays.add(key) : this.overlays.delete(key); this.redraw(); });
+      l.append(box, ` ${label}`);
+      return l;
+    }));
+    $('mask-key').addEventListener('change', () => this._layers());
+    $('new-region').addEventListener('click', () => this.newRegion(+$('mask-key').value));
+    $('from-prediction').addEventListener('click', () => this.fromPrediction(+$('mask-key').value));
+    $('undo').addEventListener('click', () => this.history.undo());
+    $('redo').addEventListener('click', () => this.history.redo());
+    $('save').addEventListener('click', () => this.save());
+    $('run').addEventListener('click', () => this.run());
+    $('help-open').addEventListener('click', () => { $('help').hidden = false; });
+    $('help-close').addEventListener('click', () => { $('help').hidden = true; });
+    renderHelp($('help-table'));
+    document.querySelectorAll('select').forEach((sel) => sel.addEventListener('change', () => sel.blur()));
+    window.addEventListener('keydown', (e) => this._key(e));
+    window.addEventListener('keyup', (e) => { if (e.code === 'Space') this.spaceHeld = false; });
+    window.addEventListener('resize', () => { this.redraw(); if (this.view === 'results') this.results.draw(); if (this.view === 'pose') this.pose.draw(); });
+    window.addEventListener('beforeunload', (e) => { if (this.doc && this.doc.isDirty()) e.preventDefault(); });
+  }
+
+  _key(e) {
+    // text fields and menus keep their keys; checkboxes and sliders do not (arrows step frames, not sliders)
+    const typing = e.target.matches && e.target.matches('input[type=number], input[type=text], textarea, select');
+    if (e.code === 'Space' && !typing) { this.spaceHeld = true; if (this.view === 'annotate') e.preventDefault(); }
+    const action = actionFor(e);
+    if (!action || (typing && !['save', 'escape'].includes(action))) return;
+    const run = this._actions()[action];
+    if (!run) return;
+    e.preventDefault();
+    run(e);
+  }
+
+  _actions() {
+    const nudge = (e) => {
+      if (this.view === 'results') { this.results.show(this.results.index + (e.key === 'ArrowLeft' || e.key === 'ArrowUp' ? -1 : 1)); return; }
+      const sel = this.selected;
+      if (!sel) return;
+      const step = e.shiftKey ? 0.1 : 1;
+      const [dx, dy] = { ArrowLeft: [-step, 0], ArrowRight: [step, 0], ArrowUp: [0, -step], ArrowDown: [0, step] }[e.key];
+      this.edit('nudge', () => {
+        const p = sel.kind === 'joint' ? this.doc.keyPose(sel.k)[sel.index] : this.doc.shot.t_junctions[sel.k][sel.index];
+        p[0] = Math.round((p[0] + dx) * 10) / 10;
+        p[1] = Math.round((p[1] + dy) * 10) / 10;
+      });
+    };
+    return {
+      'tool-select': () => this.setTool('select'), 'tool-tjunction': () => this.setTool('tjunction'),
+      'tool-paint': () => this.setTool('paint'), 'tool-erase': () => this.setTool('erase'),
+      'brush-smaller': () => this.setBrush(this.brush - 2), 'brush-larger': () => this.setBrush(this.brush + 2),
+      'new-region': () => this.newRegion(this.focusedKey),
+      delete: () => {
+        const sel = this.selected;
+        if (!sel || sel.kind !== 'tj') return;
+        this.select(null);
+        this.edit('delete T-junction', () => this.doc.shot.t_junctions[sel.k].splice(sel.index, 1));
+      },
+      nudge,
+      undo: () => this.history.undo(), redo: () => this.history.redo(), save: () => this.save(),
+      fit: () => this.keys.forEach((v) => v.fit()),
+      'view-annotate': () => this._showView('annotate'), 'view-pose': () => this._showView('pose'),
+      'view-results': () => this._showView('results'),
+      play: () => this.results.togglePlay(),
+      onion: () => { $('onion').checked = !$('onion').checked; this.results.draw(); },
+      'add-pose': () => { if (this.view === 'pose') this.pose.addPose(); },
+      help: () => { $('help').hidden = !$('help').hidden; },
+      escape: () => { $('help').hidden = true; this.select(null); this.clearError(); },
+    };
+  }
+}
+
+
+const app = new App();
+window.editorApp = app;  // for the browser console
+app.boot().catch((e) => {
+  const bar = $('error-bar');
+  bar.hidden = false;
+  bar.textContent = `the editor could not start: ${e.message}`;
+});

@@ -1,0 +1,54 @@
+"""Reruns across an editor restart: a live rerun is followed to its end, a dead one is started again."""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+from editor.rerun import Reruns, error_line
+
+from .conftest import fake_command
+
+
+def make(tmp_path, *extra) -> Reruns:
+    work = tmp_path / "work"
+    return Reruns(tmp_path / "shot", "shot", work, tmp_path / "home", tmp_path, fake_command("shot", work / "out", *extra))
+
+
+def test_restarted_editor_follows_a_rerun_that_still_runs(tmp_path):
+    first = make(tmp_path, "--sleep", "0.6")
+    first.start()
+    first.request("save")
+    time.sleep(0.8)  # the rerun is under way
+    first.stop()  # the editor goes away; the rerun does not
+    pid = json.loads((tmp_path / "work" / "rerun.json").read_text())["pid"]
+    second = make(tmp_path, "--sleep", "0.6")
+    assert second.snapshot()[1]["state"] == "running" and second.snapshot()[1]["seq"] == 1
+    second.start()
+    st = second.wait_idle(20)
+    assert st["state"] == "done" and st["seq"] == 1 and "restarted" in st["note"]
+    assert set(st["stages"]) == {"key1/refined_masks", "key1/template", "rife_matrix", "inbetween_frames"}
+    assert json.loads((tmp_path / "work" / "rerun.json").read_text())["pid"] == pid  # no second process started
+
+
+def test_restarted_editor_reruns_when_the_rerun_died_with_it(tmp_path):
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    work = tmp_path / "work"
+    work.mkdir()
+    (work / "rerun.json").write_text(json.dumps({"state": "running", "seq": 4, "stages": {}, "pid": dead.pid,
+                                                 "progress": str(work / "p.jsonl"), "log": str(work / "l.log")}))
+    reruns = make(tmp_path)
+    st = reruns.snapshot()[1]
+    assert st["state"] == "running" and st["seq"] == 5 and st["reason"].startswith("restart")
+    reruns.start()
+    assert reruns.wait_idle(20)["state"] == "done"
+
+
+def test_error_line_is_the_cli_one_liner(tmp_path):
+    log = tmp_path / "log"
+    log.write_text("some dagster noise\nerror: /s/shot.json: poses[2].t: bad; fix: sort\n")
+    assert error_line(log) == "/s/shot.json: poses[2].t: bad; fix: sort"
+    log.write_text("Traceback...\nKeyError: 'x'\n")
+    assert error_line(log) == "KeyError: 'x'"
