@@ -1,4 +1,4 @@
-"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit. It parses, calls, prints.
+"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit, worker. It parses, calls, prints.
 
 The work is done by assets/runs.py, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
@@ -50,6 +50,8 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("shots_root")
     b.add_argument("--out", required=True)
     b.add_argument("--workers", type=int, default=2, choices=range(1, 65), metavar="{1..64}")
+    b.add_argument("--executor", choices=["in_process", "celery"], default="in_process",
+                   help="celery: every step on `inbetween worker` processes (docs/production.md)")
     method_flags(b)
     s = sub.add_parser("status", help="which stages of a shot the next run executes, and why")
     s.add_argument("shot_dir")
@@ -69,6 +71,16 @@ def _parser() -> argparse.ArgumentParser:
     ed.add_argument("shot_dir")
     ed.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (0: any free port)")
     ed.add_argument("--no-browser", action="store_true", help="do not open the default browser")
+    w = sub.add_parser("worker", help="a farm worker: runs the steps of `batch --executor celery` (docs/production.md)")
+    w.add_argument("--queue", action="append", choices=["cpu", "gpu"],
+                   help="queue to serve, repeatable (default cpu); gpu: the RIFE steps, with INBETWEEN_DEVICE=cuda")
+    w.add_argument("--concurrency", type=int, default=1, help="steps at once (1: in this process; N: N children)")
+    w.add_argument("--threads", type=int, default=None, help="torch threads per step (default: cores / concurrency)")
+    w.add_argument("--broker", default=None, help="Celery broker URL (default: INBETWEEN_BROKER, else local Redis)")
+    w.add_argument("--visibility-timeout", type=float, default=None,
+                   help="seconds before an unacknowledged step goes to another worker (longer than any stage)")
+    w.add_argument("--name", default=None, help="worker name (default: QUEUES-PID@HOST)")
+    w.add_argument("--loglevel", default="INFO")
     return parser
 
 
@@ -103,6 +115,23 @@ def _run(args) -> int:
     return 0
 
 
+def _farm_ready(args) -> bool:
+    """For --executor celery: the farm's packages are there (else one line, False); warn when no worker answers."""
+    from .farm.settings import missing_extra
+
+    why = missing_extra()
+    if why:
+        print(f"error: {why}", file=sys.stderr)
+        return False
+    if args.command == "batch":
+        from .farm.worker import answering
+
+        if not answering():
+            print("warning: no `inbetween worker` answered on the broker (INBETWEEN_BROKER) within 2 s: none runs, "
+                  "or all are busy with a step; the steps wait in their queues", file=sys.stderr, flush=True)
+    return True
+
+
 def _batch(args) -> int:
     from .console import table
     from .runs import batch, register
@@ -128,9 +157,12 @@ def _batch(args) -> int:
                               cached=f"{sum(s['cached'] for s in stages)}/{len(stages)}",
                               warnings=sum(s.get("warnings", 0) for s in stages))
 
+    if args.executor == "celery" and not _farm_ready(args):
+        return EXIT_BAD_INPUT
     t0 = time.perf_counter()
     with board.follow():
-        reports, errors = batch(root, args.out, args.workers, _settings(args), verbose=args.verbose, on_done=done)
+        reports, errors = batch(root, args.out, args.workers, _settings(args), verbose=args.verbose, on_done=done,
+                                executor=args.executor)
     print(table([rows[n] for n in sorted(rows)]))
     for err in errors:
         print(f"error: {err}", file=sys.stderr)
@@ -184,7 +216,19 @@ def _edit(args) -> int:
     return 0
 
 
-COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui, "edit": _edit}
+def _worker(args) -> int:
+    if not _farm_ready(args):
+        return EXIT_BAD_INPUT
+    from .farm.settings import DEFAULT_VISIBILITY_TIMEOUT
+    from .farm.worker import start_worker
+
+    start_worker(tuple(args.queue or ["cpu"]), args.concurrency, args.threads, args.broker,
+                 args.visibility_timeout or DEFAULT_VISIBILITY_TIMEOUT, args.name, args.loglevel)
+    return 0
+
+
+COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui, "edit": _edit,
+            "worker": _worker}
 
 
 def _crash_log(trace: str) -> Path | None:

@@ -4,6 +4,10 @@ Paths come from the environment so the UI (`dagster dev -w workspace.yaml`)
 and the `inbetween` CLI share one instance and one storage (assets/home.py):
   INBETWEEN_HOME   default ./.inbetween  (dagster/ = DAGSTER_HOME, storage/, shots.json)
   INBETWEEN_SHOTS  default ./data_samples (scanned by the sensor)
+
+Where the `.[farm]` extra is installed, the job `inbetween_shot_farm` runs
+the same stages with each step on a Celery worker (assets/farm/,
+docs/production.md).
 """
 from __future__ import annotations
 
@@ -42,6 +46,19 @@ def build_resources(settings: Settings | None = None) -> dict:
     }
 
 
+def resources_config(settings: Settings | None = None) -> dict:
+    """Run config that pins a run's resources to this process's home, shots and settings.
+
+    A farm run's steps build their resources on other hosts: this config travels with the run, so they
+    write where the process that planned the run will read, with the settings it planned for. Every field
+    is given: a resource configured in the run config keeps none of its values from the Definitions.
+    """
+    h = home()
+    return {"io_manager": {"config": {"root": str(h / "storage")}},
+            "shots": {"config": {"shots_root": str(shots_root()), "registry": str(h / "shots.json")}},
+            "settings": {"config": (settings or Settings()).as_dict()}}
+
+
 def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:
     return source_versions(shots.load(partition))
 
@@ -56,6 +73,17 @@ shot_job = dg.define_asset_job("inbetween_shot", selection=dg.AssetSelection.gro
                                partitions_def=PARTITIONS)
 evaluation_job = dg.define_asset_job("evaluate_shot", selection=[asset_key(n) for n in EVAL_STAGES],
                                      partitions_def=PARTITIONS)
+FARM_JOB = "inbetween_shot_farm"
+
+
+def farm_jobs() -> list:
+    """The shot job on the Celery executor (assets/farm/), where the `.[farm]` extra is installed."""
+    try:
+        from .farm.executor import farm_executor
+    except ModuleNotFoundError:  # no dagster-celery: every other path works without it
+        return []
+    return [dg.define_asset_job(FARM_JOB, selection=dg.AssetSelection.groups("key0", "key1", "blending"),
+                                partitions_def=PARTITIONS, executor_def=farm_executor)]
 
 
 @dg.sensor(job=observe_job, minimum_interval_seconds=30, default_status=dg.DefaultSensorStatus.RUNNING)
@@ -84,9 +112,15 @@ def file_logger(init_context: dg.InitLoggerContext) -> logging.Logger:
 
 
 def build_definitions(settings: Settings | None = None) -> dg.Definitions:
-    return dg.Definitions(assets=ALL_ASSETS, jobs=[observe_job, shot_job, evaluation_job], sensors=[shot_directories],
+    return dg.Definitions(assets=ALL_ASSETS, jobs=[observe_job, shot_job, evaluation_job, *farm_jobs()],
+                          sensors=[shot_directories],
                           resources=build_resources(settings),
                           loggers={"console": dg.colored_console_logger, "file": file_logger})
 
 
 defs = build_definitions()
+
+
+def farm_job() -> dg.JobDefinition:
+    """The farm job, for `dg.reconstructable`: a Celery worker rebuilds it by importing this module."""
+    return defs.resolve_job_def(FARM_JOB)

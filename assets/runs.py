@@ -355,25 +355,47 @@ class Session:
             instance=self.instance, partition_key=partition, asset_selection=[asset_key(n) for n in names],
             run_config=run_config, raise_on_error=False, tags={"inbetween/shot": partition})
         if not result.success:
-            failures = [e for e in result.all_events if e.event_type_value == "STEP_FAILURE"]
-            if failures:
-                ev = failures[0]
-                err = ev.event_specific_data.error
-                stage = ev.step_key.replace("__", "/")
-                chain = [err]
-                while chain[-1].cause is not None:
-                    chain.append(chain[-1].cause)
-                for e in chain:  # bad input found inside a stage: the same one-line error as at loading
-                    if e.cls_name == "ShotError":
-                        text = e.message.strip().splitlines()[-1]
-                        raise RelayedShotError(text.split("ShotError: ", 1)[-1])
-                cause = chain[-1]
-                lines = cause.message.strip().splitlines()
-                text = lines[0] if lines else "failed"
-                raise StageFailed(shot, stage, text if text.startswith(cause.cls_name) else f"{cause.cls_name}: {text}",
-                                  log_path, err.to_string())
-            raise StageFailed(shot, "run", _run_failure_cause(result), log_path)
+            raise_failure(result.all_events, shot, log_path)
         return result
+
+    def materialize_farm(self, shot: str, partition: str, names: list[str], log_path: Path, verbose: bool = False):
+        """Run the named stages of one partition as one run of the farm job: each step on a Celery worker
+        (assets/farm/), this process orchestrating; StageFailed if a stage raises."""
+        from .definitions import farm_job, resources_config
+        from .stage import asset_key
+
+        run_config = {"loggers": {"file": {"config": {"path": str(log_path)}},
+                                  "console": {"config": {"log_level": "DEBUG" if verbose else "CRITICAL"}}},
+                      "resources": resources_config(self.settings)}
+        result = self.dg.execute_job(
+            self.dg.reconstructable(farm_job), self.instance, run_config=run_config,
+            tags={"inbetween/shot": partition, "dagster/partition": partition},
+            asset_selection=[asset_key(n) for n in names])
+        if not result.success:
+            raise_failure(result.all_events, shot, log_path)
+        return result
+
+
+def raise_failure(events, shot: str, log_path: Path):
+    """The one-line error of a failed run: a ShotError raised inside a stage as it was, else StageFailed."""
+    failures = [e for e in events if e.event_type_value == "STEP_FAILURE"]
+    if failures:
+        ev = failures[0]
+        err = ev.event_specific_data.error
+        stage = ev.step_key.replace("__", "/")
+        chain = [err]
+        while chain[-1].cause is not None:
+            chain.append(chain[-1].cause)
+        for e in chain:  # bad input found inside a stage: the same one-line error as at loading
+            if e.cls_name == "ShotError":
+                text = e.message.strip().splitlines()[-1]
+                raise RelayedShotError(text.split("ShotError: ", 1)[-1])
+        cause = chain[-1]
+        lines = cause.message.strip().splitlines()
+        text = lines[0] if lines else "failed"
+        raise StageFailed(shot, stage, text if text.startswith(cause.cls_name) else f"{cause.cls_name}: {text}",
+                          log_path, err.to_string())
+    raise StageFailed(shot, "run", _run_failure_cause(events), log_path)
 
 
 def open_instance():
@@ -392,9 +414,9 @@ def open_instance():
         raise HomeDamaged(dagster_home(), e) from e
 
 
-def _run_failure_cause(result) -> str:
+def _run_failure_cause(events) -> str:
     """The first error a failed run reports outside any step (a resource that did not start, the engine)."""
-    for ev in result.all_events:
+    for ev in events:
         err = getattr(ev.event_specific_data, "error", None)
         if err is not None:
             while err.cause is not None:
@@ -420,14 +442,21 @@ def _log_path(partition: str) -> Path:
     return home() / "logs" / f"{time.strftime('%Y%m%d-%H%M%S')}-{partition}-{os.getpid()}.log"
 
 
+EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (assets/farm/, docs/production.md)
+
+
 @retry_database_locked
-def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False) -> dict[str, dict]:
+def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
+            executor: str = "in_process") -> dict[str, dict]:
     """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
     from .ahead import working_ahead
 
     session = Session.get(settings)
     session.ensure_partition(p.partition)
     session.observe(p.partition, p.sources)
+    if executor == "celery":
+        result = session.materialize_farm(p.shot.root, p.partition, names, _log_path(p.partition), verbose)
+        return stage_timings(result.all_events)
     executed: dict[str, dict] = {}
 
     def on_event(ev: dict) -> None:
@@ -442,9 +471,23 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
     return executed
 
 
+def stage_timings(events) -> dict[str, dict]:
+    """{stage: {seconds, cached}} from a run's materializations (steps that ran in other processes)."""
+    out = {}
+    for ev in events:
+        if ev.event_type_value == "ASSET_MATERIALIZATION":
+            mat = ev.event_specific_data.materialization
+            meta = {k: getattr(v, "value", v) for k, v in mat.metadata.items()}
+            out["/".join(mat.asset_key.path)] = {"seconds": meta.get("seconds", 0.0), "cached": meta.get("cached", False)}
+    return out
+
+
 def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None, *,
-             on_wait: Callable[[], None] | None = None, verbose: bool = False) -> dict:
-    """Run one shot end to end; returns the report (also written to OUT_DIR/report.json)."""
+             on_wait: Callable[[], None] | None = None, verbose: bool = False, executor: str = "in_process") -> dict:
+    """Run one shot end to end; returns the report (also written to OUT_DIR/report.json).
+
+    executor: "in_process" (this process runs the stages) or "celery" (farm workers do; this process waits).
+    """
     from ops.shotio.frames import write_outputs
 
     start = time.perf_counter()
@@ -452,7 +495,7 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)
     with shot_lock(partition, on_wait):
-        shot, executed = _settle(shot, settings, verbose)
+        shot, executed = _settle(shot, settings, verbose, executor)
         st = store()
         frames = st.read("inbetween_frames", partition)
         paths = st.read("optimal_path", partition)
@@ -476,7 +519,8 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
 SETTLE_ROUNDS = 3
 
 
-def _settle(shot: Shot, settings: Settings, verbose: bool) -> tuple[Shot, dict[str, dict]]:
+def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_process"
+            ) -> tuple[Shot, dict[str, dict]]:
     """Run the stages that are not fresh until the shot on disk is the one they ran on.
 
     A shot saved during the run (from the editor, a text editor) can make a stage read the new shot
@@ -491,7 +535,7 @@ def _settle(shot: Shot, settings: Settings, verbose: bool) -> tuple[Shot, dict[s
         try:
             if p.to_run or not p.recorded:
                 # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
-                executed.update(execute(p, settings, p.to_run or list(SHOT_STAGES), verbose))
+                executed.update(execute(p, settings, p.to_run or list(SHOT_STAGES), verbose, executor))
                 _remember_ui(p, SHOT_STAGES)
             failure = None
         except (StageFailed, ShotError) as e:
@@ -565,7 +609,7 @@ def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings |
 
 
 def _batch_worker(shot_dir: str, out_dir: str, settings: Settings,
-                  verbose: bool = False) -> tuple[str, dict | None, ShotFailure | None]:
+                  verbose: bool = False, executor: str = "in_process") -> tuple[str, dict | None, ShotFailure | None]:
     import torch
 
     if not verbose:
@@ -573,7 +617,7 @@ def _batch_worker(shot_dir: str, out_dir: str, settings: Settings,
     torch.set_num_threads(1)  # two shots share two cores
     name = Path(shot_dir).name
     try:
-        return shot_dir, run_shot(shot_dir, out_dir, settings, verbose=verbose), None
+        return shot_dir, run_shot(shot_dir, out_dir, settings, verbose=verbose, executor=executor), None
     except ShotError as e:
         return shot_dir, None, ShotFailure(str(e), name, True)
     except (StageFailed, HomeDamaged) as e:
@@ -585,14 +629,20 @@ def _batch_worker(shot_dir: str, out_dir: str, settings: Settings,
 
 def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Settings | None = None,
           verbose: bool = False, on_done: Callable[[str, dict | None, ShotFailure | None], None] | None = None,
-          ) -> tuple[dict, list[str]]:
+          executor: str = "in_process") -> tuple[dict, list[str]]:
     """Every shot directory under root, `workers` at a time; returns (reports by shot name, errors).
 
     Each error is a ShotFailure (a str naming the shot's failure in one line). on_done(shot name, report,
     error) is called as each shot ends. A batch whose valid shots together exceed the output-pixel bound
     is refused before any shot runs (ShotError).
+
+    executor "celery": each shot is one run of the farm job whose steps run on Celery workers; `workers` is
+    then how many shots are in flight (each an orchestrating process that mostly waits).
     """
     import multiprocessing as mp
+
+    if executor not in EXECUTORS:
+        raise ValueError(f"executor must be one of {EXECUTORS}, got {executor!r}")
 
     settings = settings or Settings()
     ensure_home()
@@ -608,7 +658,8 @@ def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Set
         register(d)
     reports, errors = {}, []
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=mp.get_context("spawn")) as pool:
-        futures = {pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings, verbose): d
+        futures = {pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings, verbose,
+                               executor): d
                    for d in shots}
         for f in as_completed(futures):
             try:
