@@ -98,7 +98,7 @@ def cli(args: list[str], home: Path) -> dict:
 
 
 def load() -> str:
-    return "load %.1f %.1f %.1f" % os.getloadavg()
+    return "load {:.1f} {:.1f} {:.1f}".format(*os.getloadavg())
 
 
 def move_key1_junction(shot: Path) -> bool:
@@ -152,9 +152,8 @@ def print_stage_split(results: dict[str, dict]) -> None:
 
 def scaled_shot(src: Path, dst: Path, size: int, frames: int | None) -> Path:
     """A copy of src resized to `size` px; with `frames`, only the key poses kept and `frames` set."""
-    from tests.assets.conftest import scaled_copy
-
     from ops.shotio.image_io import image_size
+    from tests.assets.conftest import scaled_copy
 
     h, _ = image_size(src / "key0.png")
     shot = scaled_copy(src, dst, size / h)
