@@ -1,8 +1,8 @@
 """The masks of a keyframe (§4.1): foreground and occlusion regions, predicted or given by hand.
 
-Manual masks override the prediction (ops.segmentation.foreground,
-ops.segmentation.occlusion); the T-junction refinement (ops.segmentation.refine)
-then corrects the region boundaries where the user clicked.
+Manual masks override the prediction (ops.segmentation.foreground; occlusion read off the drawing by
+ops.segmentation.occlusion_drawing, or from the skeleton alone by ops.segmentation.occlusion); the
+T-junction refinement (ops.segmentation.refine) then corrects the region boundaries where the user clicked.
 """
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
 from ops.segmentation.foreground import foreground_mask
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
-from ops.segmentation.occlusion import predict_occlusion
+from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
+from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion
 from ops.types import Masks, Skeleton
 
 NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
+OCCLUSION_PREDICTORS = ("drawing", "skeleton")  # Settings.occlusion
 
 
 def pose_warnings(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> list[str]:
@@ -65,17 +67,24 @@ def build_masks(
     manual_foreground: np.ndarray | None = None,
     manual_occlusion: list[np.ndarray] | None = None,
     source: str = "drawing",
+    occlusion: str = "drawing",
 ) -> Masks:
     """Masks of a (H, W, C) float32 drawing at a (J, 3) pose; manual masks ((H, W) bool/float) override.
 
     manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
-    those regions. `source` names the keyframe file in errors.
+    those regions. `occlusion` picks the predictor (Settings.occlusion): "drawing" or "skeleton". `source`
+    names the keyframe file in errors.
     """
+    if occlusion not in OCCLUSION_PREDICTORS:
+        raise ValueError(f"occlusion predictor {occlusion!r}: use one of {OCCLUSION_PREDICTORS}")
     fg = _foreground(drawing, manual_foreground, source)
     warnings = pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
-    if predicted:
-        regions, fronts, w = predict_occlusion(fg, pose, skeleton)
+    if predicted and occlusion == "drawing":
+        regions, fronts, w = drawing_occlusion(drawing, fg, pose, skeleton)
+        warnings += w
+    elif predicted:
+        regions, fronts, w = skeleton_occlusion(fg, pose, skeleton)
         warnings += w
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
