@@ -28,6 +28,7 @@ if str(ROOT) not in sys.path:
 
 from ops.segmentation.network_input import colour_channels, paper_colour, resample, to_work, work_frame  # noqa: E402
 from ops.segmentation.occlusion_net import (  # noqa: E402
+    IN_CHANNELS,
     STRIDE,
     WEIGHTS_PATH,
     OcclusionUNet,
@@ -42,49 +43,56 @@ ZOOM_JITTER = 0.2  # log-uniform zoom factor in exp(+-this) around the working z
 DROP_DEPTH = 0.15  # share of crops whose depth channels are zeroed (skeletons without z)
 
 
-def prepare(sample: dict, rng: np.random.Generator) -> dict:
-    """A sample at its (jittered) working scale: colour (h, w, 3) uint8, paper (3,), label (h, w) bool, pose."""
+def prepare(sample: dict, rng: np.random.Generator, pad: int) -> dict:
+    """A sample at its (jittered) working scale, padded by `pad` px: colour (3, h, w) float32 (paper = 0),
+    guide (GUIDE_CHANNELS, h, w) int8 (x 127; computed once here, the crops only slice it), label (h, w) bool."""
     fg = sample["fg"] > 127
     frame = work_frame(fg, sample["pose"])
     frame.zoom *= float(np.exp(rng.uniform(-ZOOM_JITTER, ZOOM_JITTER)))
     x0, y0, x1, y1 = frame.box
     hw = frame.work_shape()
     img = sample["image"]
-    colour = resample(np.ascontiguousarray(img[y0:y1, x0:x1]), hw)
+    colour = colour_channels(resample(np.ascontiguousarray(img[y0:y1, x0:x1]), hw), paper_colour(img))
     label = resample(sample["union"][y0:y1, x0:x1].astype(np.float32), hw) > 0.5
-    return {"colour": colour, "paper": paper_colour(img), "label": label, "pose": to_work(sample["pose"], frame),
-            "parents": sample["parents"]}
+    pose = to_work(sample["pose"], frame)
+    pose[:, :2] += pad
+    shape = (hw[0] + 2 * pad, hw[1] + 2 * pad)
+    skeleton = Skeleton(tuple(str(i) for i in range(len(pose))), sample["parents"])
+    guide = np.round(guide_channels(pose, skeleton, shape) * 127).astype(np.int8)
+    return {"colour": np.pad(colour, ((0, 0), (pad, pad), (pad, pad))).astype(np.float16), "guide": guide,
+            "label": np.pad(label, pad)}
 
 
-def crop(item: dict, rng: np.random.Generator, size: int = 96) -> tuple[np.ndarray, np.ndarray]:
-    """A random size x size training pair: (IN_CHANNELS, size, size) input and (1, size, size) label."""
-    colour, label, pose = item["colour"], item["label"], item["pose"].copy()
+def crop(item: dict, rng: np.random.Generator, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """A random size x size training pair: (IN_CHANNELS, size, size) input and (1, size, size) label.
+
+    The crop's centre lies inside the unpadded picture, at least size / 4 from the padded border."""
+    label = item["label"]
     h, w = label.shape
+    lo, hi_y, hi_x = size // 4, h - size // 4, w - size // 4
     ys, xs = np.nonzero(label)
-    if len(ys) and rng.random() < 0.7:  # centred on an occluded pixel: positives are rare
+    if len(ys) and rng.random() < 0.7:  # near an occluded pixel: positives are rare
         k = int(rng.integers(len(ys)))
         cy, cx = ys[k] + rng.integers(-size // 4, size // 4 + 1), xs[k] + rng.integers(-size // 4, size // 4 + 1)
     else:
-        cy, cx = rng.integers(0, h), rng.integers(0, w)
-    y0, x0 = int(cy) - size // 2, int(cx) - size // 2
-    c = np.zeros((3, size, size), np.float32)
+        cy, cx = rng.integers(lo, max(hi_y, lo + 1)), rng.integers(lo, max(hi_x, lo + 1))
+    cy, cx = int(np.clip(cy, lo, max(hi_y - 1, lo))), int(np.clip(cx, lo, max(hi_x - 1, lo)))
+    y0, x0 = cy - size // 2, cx - size // 2
+    x = np.zeros((IN_CHANNELS, size, size), np.float32)
     lab = np.zeros((1, size, size), np.float32)
     sy0, sx0, sy1, sx1 = max(y0, 0), max(x0, 0), min(y0 + size, h), min(x0 + size, w)
-    if sy1 > sy0 and sx1 > sx0:
-        c[:, sy0 - y0: sy1 - y0, sx0 - x0: sx1 - x0] = colour_channels(colour[sy0:sy1, sx0:sx1], item["paper"])
-        lab[0, sy0 - y0: sy1 - y0, sx0 - x0: sx1 - x0] = label[sy0:sy1, sx0:sx1]
-    pose[:, 0] -= x0
-    pose[:, 1] -= y0
-    if rng.random() < 0.5:  # mirror
-        c, lab = c[:, :, ::-1], lab[:, :, ::-1]
-        pose[:, 0] = size - 1 - pose[:, 0]
-    c = c[rng.permutation(3)] * rng.uniform(0.7, 1.3)  # other palettes, paler or stronger drawings
-    c = c + rng.normal(0, rng.uniform(0, 0.03), c.shape).astype(np.float32)
-    skeleton = Skeleton(tuple(str(i) for i in range(len(pose))), item["parents"])
-    guide = guide_channels(pose, skeleton, (size, size))
+    inside = (slice(sy0 - y0, sy1 - y0), slice(sx0 - x0, sx1 - x0))
+    x[(slice(0, 3), *inside)] = item["colour"][:, sy0:sy1, sx0:sx1]
+    x[(slice(3, None), *inside)] = item["guide"][:, sy0:sy1, sx0:sx1] / 127.0
+    lab[(0, *inside)] = label[sy0:sy1, sx0:sx1]
+    if rng.random() < 0.5:  # mirror: the skeleton channels are mirror-symmetric
+        x, lab = x[:, :, ::-1], lab[:, :, ::-1]
+    x[:3] = x[rng.permutation(3)] * rng.uniform(0.7, 1.3)  # other palettes, paler or stronger drawings
+    x[:3] += rng.normal(0, rng.uniform(0, 0.03), (3, size, size)).astype(np.float32)
+    np.clip(x[:3], -1, 1, out=x[:3])
     if rng.random() < DROP_DEPTH:
-        guide[3:5] = 0.0
-    return np.concatenate([np.clip(c, -1, 1), guide]).astype(np.float32), np.ascontiguousarray(lab)
+        x[3 + 3: 3 + 5] = 0.0
+    return np.ascontiguousarray(x), np.ascontiguousarray(lab)
 
 
 def loss_fn(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
@@ -120,7 +128,7 @@ def main(argv: list[str] | None = None) -> None:
     rng = np.random.default_rng(SEED)
     t0 = time.perf_counter()
     paths = ensure(args.cache, "train", 0, args.samples, args.workers)
-    items = [prepare(load(p), rng) for p in paths]
+    items = [prepare(load(p), rng, args.crop // 4) for p in paths]
     print(f"{len(items)} samples prepared in {time.perf_counter() - t0:.0f} s", flush=True)
     net = OcclusionUNet().to(memory_format=torch.channels_last)  # ~30% faster convolutions on the CPU
     opt = torch.optim.AdamW(net.parameters(), lr=args.lr, weight_decay=1e-4)
