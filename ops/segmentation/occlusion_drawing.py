@@ -18,7 +18,7 @@ import torch
 from scipy import ndimage
 
 from ops.segmentation.bones import bone_depths, bone_radii
-from ops.segmentation.network_input import from_work, network_input
+from ops.segmentation.network_input import from_work, network_input, resample, to_work
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.segmentation.occlusion_net import load_network
 from ops.segmentation.skeleton_guide import bone_distance_stack
@@ -31,6 +31,7 @@ REACH_PX = 3.0
 MIN_FRONT_SHARE = 0.15  # a bone in front on this share of a region is one of its front bones
 EDGE_LEVEL = 0.08  # colour step (0-1 scale) that counts as a stroke or colour edge: evidence in the drawing
 MAX_FLAT_EDGE_SHARE = 0.01  # a region whose pixels are edges less often than this shows nothing
+MAX_VOTERS = 4000  # pixels of a region that vote on its front bones
 
 
 def to_uint8(drawing: np.ndarray) -> np.ndarray:
@@ -43,19 +44,9 @@ def to_uint8(drawing: np.ndarray) -> np.ndarray:
     return np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
 
 
-def occlusion_probability(image: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
-                          ) -> np.ndarray:
-    """(H, W) float32 probability that a pixel shows a part covering another, of a (H, W, 3) uint8 drawing."""
-    x, frame = network_input(image, foreground, pose, skeleton)
-    net = load_network()
-    with torch.inference_mode():
-        prob = torch.sigmoid(net(torch.from_numpy(x)[None]))[0, 0].numpy()
-    return from_work(prob, frame, foreground.shape)
-
-
-def front_and_back(points: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+def front_and_back(points: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
                    ) -> tuple[np.ndarray, np.ndarray]:
-    """(N,) int64 front and back bone at each of (N, 2) pixel positions (x, y).
+    """(N,) int64 front and back bone at each of (N, 2) pixel positions (x, y); radii: (B,) body radii, pixels.
 
     Of the bones whose bodies reach the pixel (REACH body radii), the two nearest; the one with the smaller
     depth is in front (equal depths: the nearer bone). A pixel no body reaches uses the two nearest bones.
@@ -66,7 +57,7 @@ def front_and_back(points: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
     if len(bones) == 1:
         zero = np.zeros(len(points), np.int64)
         return zero, zero
-    reach = REACH * bone_radii(foreground, pose, skeleton) + REACH_PX
+    reach = REACH * radii + REACH_PX
     ranked = np.where(dist <= reach[:, None], dist, dist + 1e6)  # bodies that reach the pixel come first
     two = np.argsort(ranked, axis=0, kind="stable")[:2]
     depth = bone_depths(pose, skeleton)
@@ -77,72 +68,92 @@ def front_and_back(points: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
     return front.astype(np.int64), back.astype(np.int64)
 
 
-def region_front_bones(region: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
                        ) -> tuple[int, np.ndarray]:
-    """Main front bone and (b,) int64 front bones of a (H, W) bool region.
+    """Main front bone and (b,) int64 front bones of a (H, W) bool region; radii: (B,) body radii, pixels.
 
     Front bones: those in front on at least MIN_FRONT_SHARE of its pixels, less any bone that lies behind
     on more of them than in front (a region where the forearm covers the torso has the forearm only).
     """
     ys, xs = np.nonzero(region)
-    front, back = front_and_back(np.stack([xs, ys], axis=1), foreground, pose, skeleton)
+    step = max(1, len(xs) // MAX_VOTERS)  # a vote: an even subsample of a large region says the same
+    front, back = front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
     nb = len(skeleton.bones)
     fc, bc = np.bincount(front, minlength=nb), np.bincount(back, minlength=nb)
     main = int(np.argmax(fc))
-    keep = [b for b in np.nonzero(fc >= MIN_FRONT_SHARE * len(xs))[0] if b == main or fc[b] > bc[b]]
+    keep = [b for b in np.nonzero(fc >= MIN_FRONT_SHARE * len(front))[0] if b == main or fc[b] > bc[b]]
     return main, np.array(sorted(int(b) for b in keep), np.int64)
 
 
-def edge_map(image: np.ndarray) -> np.ndarray:
-    """(H, W) bool strokes and colour edges of a (H, W, 3) uint8 drawing: a colour step above EDGE_LEVEL."""
-    f = image.astype(np.float32) / 255.0
-    gx = np.abs(ndimage.sobel(f, axis=1)).max(axis=2) / 4.0
-    gy = np.abs(ndimage.sobel(f, axis=0)).max(axis=2) / 4.0
+def edge_map(colour: np.ndarray) -> np.ndarray:
+    """(h, w) bool strokes and colour edges of (3, h, w) float32 paper-relative colour (network_input's first
+    channels, 2 units = full scale): a colour step above EDGE_LEVEL."""
+    f = colour / 2.0
+    gx = np.abs(ndimage.sobel(f, axis=2)).max(axis=0) / 4.0
+    gy = np.abs(ndimage.sobel(f, axis=1)).max(axis=0) / 4.0
     return np.maximum(gx, gy) > EDGE_LEVEL
 
 
-def flat_fallback(image: np.ndarray, mask: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
-                  skeleton: Skeleton) -> tuple[list[np.ndarray], list[str]]:
-    """Skeleton-rule regions on patches that show no edge (the drawing gives no evidence) and the network
-    left unmarked: (H, W) bool each, and warnings."""
+def flat_fallback(colour: np.ndarray, marked: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
+                  skeleton: Skeleton) -> tuple[np.ndarray, int, list[str]]:
+    """The skeleton rule where the drawing gives no evidence, at one scale (the network's working scale).
+
+    colour: (3, h, w) paper-relative colour; marked: (h, w) bool what the network marked; foreground: (h, w)
+    bool; pose: (J, 3) in these pixels. Returns the (h, w) bool union of the skeleton rule's regions that lie
+    on patches showing no stroke or colour edge and that the network left unmarked, their count, warnings.
+    """
     regions, _, warnings = skeleton_occlusion(foreground, pose, skeleton)
+    out = np.zeros(foreground.shape, bool)
     if not regions:
-        return [], warnings
+        return out, 0, warnings
     inner = ndimage.binary_erosion(foreground, iterations=2)  # the silhouette's own outline is no evidence
-    edges = edge_map(image) & inner
-    kept = []
+    edges = edge_map(colour) & inner
+    kept = 0
     for r in regions:
-        patch = ndimage.binary_dilation(r, iterations=3) & inner
+        patch = ndimage.binary_dilation(r, iterations=2) & inner
         flat = edges[patch].mean() < MAX_FLAT_EDGE_SHARE if patch.any() else True
-        if flat and (mask & r).sum() < 0.1 * r.sum():
-            kept.append(r)
+        if flat and (marked & r).sum() < 0.1 * r.sum():
+            out |= r
+            kept += 1
     if kept:
-        warnings.append(f"{len(kept)} occlusion region(s) from the skeleton rule where the drawing shows no "
+        warnings.append(f"{kept} occlusion region(s) from the skeleton rule where the drawing shows no "
                         "stroke or colour edge")
-    return kept, warnings
+    return out, kept, warnings
 
 
 def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
                       ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
     """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (b,)
-    int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther)."""
+    int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther).
+
+    The network, the fallback and the front bones work at the network's working scale (the character about
+    WORK_EXTENT_PX across); only the final mask is brought back to the keyframe's resolution.
+    """
     image = drawing if drawing.dtype == np.uint8 and drawing.ndim == 3 else to_uint8(drawing)
     fg = np.asarray(foreground, bool)
     if not fg.any() or len(skeleton.bones) == 0:
         return [], [], []
-    mask = (occlusion_probability(image, fg, pose, skeleton) > THRESHOLD) & fg
-    extra, warnings = flat_fallback(image, mask, fg, pose, skeleton)
-    for r in extra:
-        mask |= r
+    x, frame = network_input(image, fg, pose, skeleton)
+    with torch.inference_mode():
+        prob = torch.sigmoid(load_network()(torch.from_numpy(x)[None]))[0, 0].numpy()
+    h, w = frame.work_shape()
+    x0, y0, x1, y1 = frame.box
+    wfg = resample(fg[y0:y1, x0:x1].astype(np.float32), (h, w)) > 0.5
+    wpose = to_work(pose, frame)
+    marked = (prob[:h, :w] > THRESHOLD) & wfg
+    extra, _, warnings = flat_fallback(x[:3, :h, :w], marked, wfg, wpose, skeleton)
+    mask = (from_work((marked | extra).astype(np.float32), frame, fg.shape) > 0.5) & fg
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
-    regions, fronts, keys = [], [], []
+    radii = bone_radii(wfg, wpose, skeleton) / frame.zoom  # a body's radius in keyframe pixels
     depth = bone_depths(pose, skeleton)
-    for lab in range(1, n + 1):
-        if sizes[lab] < MIN_REGION_PX:
+    regions, fronts, keys = [], [], []
+    for lab, box in enumerate(ndimage.find_objects(labels), start=1):
+        if box is None or sizes[lab] < MIN_REGION_PX:
             continue
-        region = labels == lab
-        main, front = region_front_bones(region, fg, pose, skeleton)
+        region = np.zeros(fg.shape, bool)
+        region[box] = labels[box] == lab
+        main, front = region_front_bones(region, pose, skeleton, radii)
         regions.append(region)
         fronts.append(front)
         keys.append(-depth[main])  # larger z (farther) first: back to front

@@ -6,8 +6,10 @@ import pytest
 import torch
 
 from ops.segmentation import occlusion_net
+from ops.segmentation.bones import bone_radii
 from ops.segmentation.foreground import foreground_mask
 from ops.segmentation.masks import build_masks
+from ops.segmentation.network_input import colour_channels, paper_colour
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.segmentation.occlusion_drawing import (
     flat_fallback,
@@ -22,11 +24,11 @@ from tests.ops.segmentation.test_masks import crossing_scene, iou
 
 def test_forearm_is_in_front_where_it_crosses_the_torso():
     drawing, pose, skeleton, true, _, _ = crossing_scene()
-    fg = foreground_mask(drawing)
+    radii = bone_radii(foreground_mask(drawing), pose, skeleton)
     ys, xs = np.nonzero(true)
-    front, back = front_and_back(np.stack([xs, ys], 1), fg, pose, skeleton)
+    front, back = front_and_back(np.stack([xs, ys], 1), pose, skeleton, radii)
     assert (front == 3).mean() > 0.9 and (back == 0).mean() > 0.9  # forearm over torso
-    main, fronts = region_front_bones(true, fg, pose, skeleton)
+    main, fronts = region_front_bones(true, pose, skeleton, radii)
     assert main == 3 and 0 not in fronts
 
 
@@ -34,9 +36,9 @@ def test_equal_depths_put_the_nearer_bone_in_front():
     drawing, pose, skeleton, true, _, _ = crossing_scene()
     flat = pose.copy()
     flat[:, 2] = 0.0
-    fg = foreground_mask(drawing)
+    radii = bone_radii(foreground_mask(drawing), pose, skeleton)
     pts = np.array([[60.0, 82.0]])  # on the forearm's segment, inside the torso
-    front, back = front_and_back(pts, fg, flat, skeleton)
+    front, back = front_and_back(pts, flat, skeleton, radii)
     assert front[0] == 3 and back[0] == 0
 
 
@@ -46,11 +48,16 @@ def test_flat_silhouette_falls_back_to_the_skeleton_rule():
     flat = np.ones(drawing.shape, np.float32)
     flat[fg] = (0.3, 0.5, 0.8)  # one flat colour: no stroke shows where the arm crosses
     image = to_uint8(flat)
-    kept, warnings = flat_fallback(image, np.zeros_like(fg), fg, pose, skeleton)
+    colour = colour_channels(image, paper_colour(image))
+    kept, n, warnings = flat_fallback(colour, np.zeros_like(fg), fg, pose, skeleton)
     regions = skeleton_occlusion(fg, pose, skeleton)[0]
-    assert len(kept) == len(regions) >= 1 and any("no stroke" in w for w in warnings)
+    assert n == len(regions) >= 1 and any("no stroke" in w for w in warnings)
+    assert np.array_equal(kept, np.any(regions, axis=0))
     # the same silhouette with its strokes drawn: the drawing is evidence, nothing is taken from the rule
-    assert flat_fallback(to_uint8(drawing), np.zeros_like(fg), fg, pose, skeleton)[0] == []
+    inked = to_uint8(drawing)
+    assert flat_fallback(colour_channels(inked, paper_colour(inked)), np.zeros_like(fg), fg, pose, skeleton)[1] == 0
+    # what the network marked is not taken from the rule either
+    assert flat_fallback(colour, kept, fg, pose, skeleton)[1] == 0
     got, fronts, _ = predict_occlusion(flat, fg, pose, skeleton)
     union = np.zeros_like(fg)
     for r in got:
