@@ -185,6 +185,79 @@ def end_to_end(shots: list[str]) -> None:
         print(f"| {name} | {r['drawing']:.2f} | {r['skeleton']:.2f} | {r['rife_direct']:.2f} |")
 
 
+REALDEV = ROOT.parent / "shared" / "realdev" / "animated_drawings"
+# AnimatedDrawings skeletons carry no depth: z by eye from each drawing (smaller = nearer the viewer)
+REAL_DEPTHS = {
+    # round kid: arms in front of the body, legs hang behind the belly line
+    "char1": {"right_shoulder": -0.3, "right_elbow": -0.5, "right_hand": -0.5, "left_shoulder": -0.3,
+              "left_elbow": -0.5, "left_hand": -0.5, "right_knee": 0.3, "right_foot": 0.3, "left_knee": 0.3,
+              "left_foot": 0.3},
+    # girl in a skirt: the skirt (on the hips) covers the tops of the thighs
+    "char2": {"right_knee": 0.4, "right_foot": 0.4, "left_knee": 0.4, "left_foot": 0.4, "right_elbow": -0.3,
+              "right_hand": -0.3, "left_elbow": -0.3, "left_hand": -0.3},
+    # pig in side view: its right legs are the near ones (over the belly), its left legs the far ones (under it)
+    "char6": {"right_hip_b": -0.3, "right_knee_b": -0.5, "right_foot_b": -0.5, "right_hip_f": -0.3,
+              "right_knee_f": -0.5, "right_foot_f": -0.5, "left_hip_b": 0.3, "left_knee_b": 0.5, "left_foot_b": 0.5,
+              "left_hip_f": 0.3, "left_knee_f": 0.5, "left_foot_f": 0.5},
+}
+REGION_COLOURS = np.array([(230, 25, 75), (60, 180, 75), (0, 130, 200), (245, 130, 48), (145, 30, 180),
+                           (70, 240, 240), (240, 50, 230), (210, 245, 60), (0, 128, 128), (170, 110, 40)], np.uint8)
+
+
+def real_skeleton(cfg: dict, depths: dict[str, float]) -> tuple[Skeleton, np.ndarray]:
+    """Skeleton and (J, 3) pose of an AnimatedDrawings char_cfg.yaml, with z from `depths` (0 elsewhere)."""
+    names = [j["name"] for j in cfg["skeleton"]]
+    parents = np.array([names.index(j["parent"]) if j["parent"] else -1 for j in cfg["skeleton"]], np.int64)
+    pose = np.array([[*j["loc"], depths.get(j["name"], 0.0)] for j in cfg["skeleton"]], np.float64)
+    return Skeleton(tuple(names), parents), pose
+
+
+def overlay(image: np.ndarray, regions: list[np.ndarray], fronts: list[np.ndarray], pose: np.ndarray,
+            skeleton: Skeleton, fg: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8: the drawing, the foreground's outline in grey, each region tinted, front bones thick."""
+    out = image.copy()
+    edge = fg & ~cv2.erode(fg.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    out[edge] = (128, 128, 128)
+    for i, r in enumerate(regions):
+        out[r] = (0.45 * out[r] + 0.55 * REGION_COLOURS[i % len(REGION_COLOURS)]).astype(np.uint8)
+    front = {int(b): i for i, f in enumerate(fronts) for b in f}
+    width = max(1, round(max(image.shape[:2]) / 250))
+    for b, (p, c) in enumerate(skeleton.bones):
+        a, e = tuple(int(v) for v in pose[p, :2]), tuple(int(v) for v in pose[c, :2])
+        colour = tuple(int(v) for v in REGION_COLOURS[front[b] % len(REGION_COLOURS)]) if b in front else (0, 0, 0)
+        cv2.line(out, a, e, colour, 3 * width if b in front else width, cv2.LINE_AA)
+    return out
+
+
+def real_drawings(out_dir: Path) -> None:
+    """Predicted masks on AnimatedDrawings characters (../shared/realdev), given the person-made foreground and
+    the predicted one: OUT/charN.png = drawing | drawing predictor (true fg) | (predicted fg) | skeleton rule."""
+    import yaml
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for name, depths in REAL_DEPTHS.items():
+        d = REALDEV / name
+        image = cv2.cvtColor(cv2.imread(str(d / "texture.png"), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+        true_fg = cv2.imread(str(d / "mask.png"), cv2.IMREAD_GRAYSCALE) > 127
+        skeleton, pose = real_skeleton(yaml.safe_load((d / "char_cfg.yaml").read_text()), depths)
+        pred_fg = foreground_mask(image.astype(np.float32) / 255.0)
+        panels = [image]
+        for fg, method in ((true_fg, "drawing"), (pred_fg, "drawing"), (true_fg, "skeleton")):
+            t0 = time.perf_counter()
+            if method == "drawing":
+                regions, fronts, _ = drawing_occlusion(image, fg, pose, skeleton)
+            else:
+                regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
+            dt = time.perf_counter() - t0
+            panels.append(overlay(image, regions, fronts, pose, skeleton, fg))
+            names = ["+".join(skeleton.joints[skeleton.bones[b][1]] for b in f) for f in fronts]
+            print(f"{name} {image.shape[1]}x{image.shape[0]} {method:8s} fg={'mask.png' if fg is true_fg else 'predicted'}: "
+                  f"{len(regions)} regions ({dt:.2f} s), front bones (child joint): {', '.join(names)}")
+        path = out_dir / f"{name}.png"
+        cv2.imwrite(str(path), cv2.cvtColor(np.concatenate(panels, axis=1), cv2.COLOR_RGB2BGR))
+        print(f"written {path}")
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=100, help="test samples")
@@ -193,6 +266,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--e2e", action="store_true", help="also run the sample shots end to end (slow)")
     ap.add_argument("--shots", nargs="*", default=list(OCCLUSION_SHOTS), help="shots for --e2e")
     ap.add_argument("--threads", type=int, default=2, help="torch threads")
+    ap.add_argument("--real", type=Path, help="also write overlays of predicted masks on real drawings here "
+                                               "(../shared/realdev; kept out of the repository)")
     args = ap.parse_args(argv)
     import torch
 
@@ -207,6 +282,8 @@ def main(argv: list[str] | None = None) -> None:
     print_summary(sample_shots(), "label", "Sample shots (data_samples/*/gt_occ/key{k}_union.png)")
     print()
     timing()
+    if args.real:
+        real_drawings(args.real)
     if args.e2e:
         end_to_end(args.shots)
 
