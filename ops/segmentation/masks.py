@@ -1,8 +1,8 @@
 """The masks of a keyframe (§4.1): foreground (with holes and soft edges) and occlusion regions.
 
-Manual masks override the prediction (ops.segmentation.foreground,
-ops.segmentation.occlusion); the T-junction refinement (ops.segmentation.refine)
-then corrects the region boundaries where the user clicked.
+Manual masks override the prediction (ops.segmentation.foreground; occlusion read off the drawing by
+ops.segmentation.occlusion_drawing, or from the skeleton alone by ops.segmentation.occlusion); the
+T-junction refinement (ops.segmentation.refine) then corrects the region boundaries where the user clicked.
 """
 from __future__ import annotations
 
@@ -13,10 +13,12 @@ from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
-from ops.segmentation.occlusion import predict_occlusion
+from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
+from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion
 from ops.types import Masks, Skeleton
 
 NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
+OCCLUSION_PREDICTORS = ("drawing", "skeleton")  # Settings.occlusion
 
 
 def pose_warnings(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> list[str]:
@@ -73,20 +75,27 @@ def build_masks(
     manual_foreground: np.ndarray | None = None,
     manual_occlusion: list[np.ndarray] | None = None,
     source: str = "drawing",
+    occlusion: str = "drawing",
 ) -> Masks:
     """Masks of a (H, W, C) float32 drawing at a (J, 3) pose; manual masks ((H, W) bool/float) override.
 
     manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
-    those regions. `source` names the keyframe file in errors.
+    those regions. `occlusion` picks the predictor (Settings.occlusion): "drawing" or "skeleton". `source`
+    names the keyframe file in errors.
     """
+    if occlusion not in OCCLUSION_PREDICTORS:
+        raise ValueError(f"occlusion predictor {occlusion!r}: use one of {OCCLUSION_PREDICTORS}")
     seg = _foreground(drawing, pose, skeleton, manual_foreground, source)
     fg = seg.mask
     # bodies are as thick as drawn: a predicted mask's transparent rim must not thicken the bones' regions
     body = fg if manual_foreground is not None else fg & (seg.coverage >= 0.5)
     warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
-    if predicted:
-        regions, fronts, w = predict_occlusion(body, pose, skeleton)
+    if predicted and occlusion == "drawing":
+        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton)
+        warnings += w
+    elif predicted:
+        regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)

@@ -138,7 +138,7 @@ def test_bone_regions_disjoint_and_thick_regions_overlap():
 
 def test_predicted_crossing_puts_forearm_in_front():
     drawing, pose, skeleton, true, _, _ = crossing_scene()
-    masks = build_masks(drawing, pose, skeleton)
+    masks = build_masks(drawing, pose, skeleton, occlusion="skeleton")
     assert masks.source == "predicted"
     best = int(np.argmax([iou(r, true) for r in masks.occlusion]))
     assert iou(masks.occlusion[best], true) > 0.6
@@ -154,7 +154,7 @@ def test_adjacent_bones_produce_no_region():
     drawing = ink_drawing(outline(upper | fore))
     skeleton = Skeleton(("shoulder", "elbow", "hand"), np.array([-1, 0, 1]))
     pose = np.array([[30, 40, 0], [80, 60, -1], [40, 95, -2.0]])
-    masks = build_masks(drawing, pose, skeleton)
+    masks = build_masks(drawing, pose, skeleton, occlusion="skeleton")  # the rule; the drawing's joint overlaps count
     assert masks.occlusion == [] and masks.front_bones == []
 
 

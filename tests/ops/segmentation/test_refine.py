@@ -154,7 +154,7 @@ def test_refine_region_without_junctions_is_unchanged():
 
 def test_refine_masks_on_crossing_improves_the_prediction():
     drawing, pose, skeleton, true, _, _ = crossing_scene()
-    masks = build_masks(drawing, pose, skeleton)
+    masks = build_masks(drawing, pose, skeleton, occlusion="skeleton")  # a rough prediction for the clicks to fix
     contour = raw_contour(true)
     s, d = contour.sum(1), contour[:, 0] - contour[:, 1]
     corners = contour[[s.argmin(), s.argmax(), d.argmin(), d.argmax()]]  # where the arm's outline meets the torso's

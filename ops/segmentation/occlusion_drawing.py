@@ -1,0 +1,162 @@
+"""Occlusion masks read from the drawing with the skeleton as a guide (§4.1, issue 15).
+
+A small U-Net (ops.segmentation.occlusion_net), trained on generated characters, marks every pixel where
+one part covers another: an arm across the body, a round thigh inside a round belly, a skirt over the
+thighs, crossing shins, joint overlaps. It sees the drawing's strokes and colour edges and, through the
+skeleton channels, which bones are near and which of them is nearer the viewer. Its mask (inside the
+foreground) splits into connected regions; each region's front bones come from the skeleton: at every
+pixel, of the two nearest bones whose bodies reach it, the one with the smaller depth is in front.
+
+The skeleton rule (ops.segmentation.occlusion) stays the fallback where the drawing gives no evidence:
+a region it predicts on a patch of the drawing that shows no stroke or colour edge at all (a flat
+silhouette, a manual-mask-like fill) is kept when the network did not mark it.
+"""
+from __future__ import annotations
+
+import numpy as np
+import torch
+from scipy import ndimage
+
+from ops.segmentation.bones import bone_depths, bone_radii
+from ops.segmentation.network_input import from_work, network_input, resample, to_work
+from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
+from ops.segmentation.occlusion_net import load_network
+from ops.segmentation.skeleton_guide import bone_distance_stack
+from ops.types import Skeleton
+
+THRESHOLD = 0.5  # network probability above which a pixel is occluded
+MIN_REGION_PX = 12  # the ground truth's own minimum overlap: smaller components are noise
+REACH = 1.5  # a bone's body reaches this many body radii (+ REACH_PX) from its segment
+REACH_PX = 3.0
+MIN_FRONT_SHARE = 0.15  # a bone in front on this share of a region is one of its front bones
+EDGE_LEVEL = 0.08  # colour step (0-1 scale) that counts as a stroke or colour edge: evidence in the drawing
+MAX_FLAT_EDGE_SHARE = 0.01  # a region whose pixels are edges less often than this shows nothing
+MAX_VOTERS = 4000  # pixels of a region that vote on its front bones
+
+
+def to_uint8(drawing: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 RGB of a (H, W, C) float32 [0, 1] drawing (alpha composited over white)."""
+    img = drawing if drawing.ndim == 3 else drawing[..., None]
+    rgb = img[..., :3] if img.shape[2] >= 3 else np.repeat(img[..., :1], 3, axis=2)
+    if img.shape[2] in (2, 4):
+        a = img[..., -1:]
+        rgb = rgb * a + (1.0 - a)
+    return np.round(np.clip(rgb, 0, 1) * 255).astype(np.uint8)
+
+
+def front_and_back(points: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) int64 front and back bone at each of (N, 2) pixel positions (x, y); radii: (B,) body radii, pixels.
+
+    Of the bones whose bodies reach the pixel (REACH body radii), the two nearest; the one with the smaller
+    depth is in front (equal depths: the nearer bone). A pixel no body reaches uses the two nearest bones.
+    """
+    bones = skeleton.bones
+    ends = pose[:, :2].astype(np.float32)[bones]
+    dist = bone_distance_stack(points.astype(np.float32), ends)  # (B, N)
+    if len(bones) == 1:
+        zero = np.zeros(len(points), np.int64)
+        return zero, zero
+    reach = REACH * radii + REACH_PX
+    ranked = np.where(dist <= reach[:, None], dist, dist + 1e6)  # bodies that reach the pixel come first
+    two = np.argsort(ranked, axis=0, kind="stable")[:2]
+    depth = bone_depths(pose, skeleton)
+    d0, d1 = depth[two[0]], depth[two[1]]
+    first_front = (d0 < d1) | (np.isclose(d0, d1))  # two[0] is the nearer one
+    front = np.where(first_front, two[0], two[1])
+    back = np.where(first_front, two[1], two[0])
+    return front.astype(np.int64), back.astype(np.int64)
+
+
+def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
+                       ) -> tuple[int, np.ndarray]:
+    """Main front bone and (b,) int64 front bones of a (H, W) bool region; radii: (B,) body radii, pixels.
+
+    Front bones: those in front on at least MIN_FRONT_SHARE of its pixels, less any bone that lies behind
+    on more of them than in front (a region where the forearm covers the torso has the forearm only).
+    """
+    ys, xs = np.nonzero(region)
+    step = max(1, len(xs) // MAX_VOTERS)  # a vote: an even subsample of a large region says the same
+    front, back = front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
+    nb = len(skeleton.bones)
+    fc, bc = np.bincount(front, minlength=nb), np.bincount(back, minlength=nb)
+    main = int(np.argmax(fc))
+    keep = [b for b in np.nonzero(fc >= MIN_FRONT_SHARE * len(front))[0] if b == main or fc[b] > bc[b]]
+    return main, np.array(sorted(int(b) for b in keep), np.int64)
+
+
+def edge_map(colour: np.ndarray) -> np.ndarray:
+    """(h, w) bool strokes and colour edges of (3, h, w) float32 paper-relative colour (network_input's first
+    channels, 2 units = full scale): a colour step above EDGE_LEVEL."""
+    f = colour / 2.0
+    gx = np.abs(ndimage.sobel(f, axis=2)).max(axis=0) / 4.0
+    gy = np.abs(ndimage.sobel(f, axis=1)).max(axis=0) / 4.0
+    return np.maximum(gx, gy) > EDGE_LEVEL
+
+
+def flat_fallback(colour: np.ndarray, marked: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
+                  skeleton: Skeleton) -> tuple[np.ndarray, int, list[str]]:
+    """The skeleton rule where the drawing gives no evidence, at one scale (the network's working scale).
+
+    colour: (3, h, w) paper-relative colour; marked: (h, w) bool what the network marked; foreground: (h, w)
+    bool; pose: (J, 3) in these pixels. Returns the (h, w) bool union of the skeleton rule's regions that lie
+    on patches showing no stroke or colour edge and that the network marked less than half of, their count,
+    warnings.
+    """
+    regions, _, warnings = skeleton_occlusion(foreground, pose, skeleton)
+    out = np.zeros(foreground.shape, bool)
+    if not regions:
+        return out, 0, warnings
+    inner = ndimage.binary_erosion(foreground, iterations=2)  # the silhouette's own outline is no evidence
+    edges = edge_map(colour) & inner
+    kept = 0
+    for r in regions:
+        patch = ndimage.binary_dilation(r, iterations=2) & inner
+        flat = edges[patch].mean() < MAX_FLAT_EDGE_SHARE if patch.any() else True
+        if flat and (marked & r).sum() < 0.5 * r.sum():  # the network saw little of it: weak evidence
+            out |= r
+            kept += 1
+    if kept:
+        warnings.append(f"{kept} occlusion region(s) from the skeleton rule where the drawing shows no "
+                        "stroke or colour edge")
+    return out, kept, warnings
+
+
+def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+                      ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (b,)
+    int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther).
+
+    The network, the fallback and the front bones work at the network's working scale (the character about
+    WORK_EXTENT_PX across); only the final mask is brought back to the keyframe's resolution.
+    """
+    image = drawing if drawing.dtype == np.uint8 and drawing.ndim == 3 else to_uint8(drawing)
+    fg = np.asarray(foreground, bool)
+    if not fg.any() or len(skeleton.bones) == 0:
+        return [], [], []
+    x, frame = network_input(image, fg, pose, skeleton)
+    with torch.inference_mode():
+        prob = torch.sigmoid(load_network()(torch.from_numpy(x)[None]))[0, 0].numpy()
+    h, w = frame.work_shape()
+    x0, y0, x1, y1 = frame.box
+    wfg = resample(fg[y0:y1, x0:x1].astype(np.float32), (h, w)) > 0.5
+    wpose = to_work(pose, frame)
+    marked = (prob[:h, :w] > THRESHOLD) & wfg
+    extra, _, warnings = flat_fallback(x[:3, :h, :w], marked, wfg, wpose, skeleton)
+    mask = (from_work((marked | extra).astype(np.float32), frame, fg.shape) > 0.5) & fg
+    labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    sizes = np.bincount(labels.ravel(), minlength=n + 1)
+    radii = bone_radii(wfg, wpose, skeleton) / frame.zoom  # a body's radius in keyframe pixels
+    depth = bone_depths(pose, skeleton)
+    regions, fronts, keys = [], [], []
+    for lab, box in enumerate(ndimage.find_objects(labels), start=1):
+        if box is None or sizes[lab] < MIN_REGION_PX:
+            continue
+        region = np.zeros(fg.shape, bool)
+        region[box] = labels[box] == lab
+        main, front = region_front_bones(region, pose, skeleton, radii)
+        regions.append(region)
+        fronts.append(front)
+        keys.append(-depth[main])  # larger z (farther) first: back to front
+    order = np.argsort(np.array(keys), kind="stable")
+    return [regions[i] for i in order], [fronts[i] for i in order], warnings

@@ -1,0 +1,103 @@
+"""A small U-Net that reads occlusion from a drawing and its skeleton (§4.1), and its shipped weights.
+
+The paper predicts occlusion masks with a U-Net on a DINOv2 backbone whose weights are not public; this one
+is trained from scratch on the generated characters of data_samples/ (tools/train_occlusion.py, fixed seed)
+and is small enough for the CPU: it works at half resolution and only its last layer sees every pixel.
+
+Input: (N, IN_CHANNELS, H, W) float32, H and W multiples of STRIDE: 3 colour channels (the drawing minus its
+paper colour, in [-1, 1]) and the skeleton channels of ops.segmentation.skeleton_guide. Output: (N, 1, H, W)
+float32 logits of "this pixel shows a part that covers another part" (the union of the occlusion masks,
+joint overlaps included).
+"""
+from __future__ import annotations
+
+import hashlib
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from ops.segmentation.skeleton_guide import GUIDE_CHANNELS
+
+IN_CHANNELS = 3 + GUIDE_CHANNELS
+STRIDE = 16  # the input's sides must be multiples of this (four halvings)
+WIDTHS = (16, 24, 32, 48)
+HEAD_WIDTH = 12
+WEIGHTS_PATH = Path(__file__).with_name("occlusion_unet.npz")
+# sha256 of WEIGHTS_PATH: a retrained network changes this module, hence the code version of the stages using it
+WEIGHTS_SHA256 = "1eb869871054638ce8905563fb882d5fb8d4102c75b1312e6cb1dbbfd951dbbc"
+
+
+def _conv(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int = 1) -> nn.Sequential:
+    """Conv -> BatchNorm -> ReLU, 'same' padding for stride 1."""
+    pad = dilation * (k - 1) // 2 if stride == 1 else (k - 1) // 2
+    return nn.Sequential(nn.Conv2d(cin, cout, k, stride, pad, dilation=dilation, bias=False), nn.BatchNorm2d(cout),
+                         nn.ReLU(inplace=True))
+
+
+class OcclusionUNet(nn.Module):
+    """Encoder at 1/2 .. 1/16 resolution, decoder back to 1/2, a per-pixel head at full resolution."""
+
+    def __init__(self, widths: tuple[int, int, int, int] = WIDTHS):
+        super().__init__()
+        w1, w2, w3, w4 = widths
+        self.e1 = nn.Sequential(_conv(IN_CHANNELS, w1, 4, 2), _conv(w1, w1))
+        self.e2 = nn.Sequential(_conv(w1, w2, 3, 2), _conv(w2, w2))
+        self.e3 = nn.Sequential(_conv(w2, w3, 3, 2), _conv(w3, w3))
+        # dilated convolutions at 1/16 see a round belly whole
+        self.e4 = nn.Sequential(_conv(w3, w4, 3, 2), _conv(w4, w4, dilation=2), _conv(w4, w4, dilation=4))
+        self.d3 = _conv(w4 + w3, w3)
+        self.d2 = _conv(w3 + w2, w2)
+        self.d1 = _conv(w2 + w1, HEAD_WIDTH)
+        self.head = nn.Sequential(nn.Conv2d(HEAD_WIDTH + IN_CHANNELS, 16, 1), nn.ReLU(inplace=True),
+                                  nn.Conv2d(16, 1, 3, 1, 1))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        e1 = self.e1(x)
+        e2 = self.e2(e1)
+        e3 = self.e3(e2)
+        e4 = self.e4(e3)
+        up = lambda t, ref: F.interpolate(t, size=ref.shape[-2:], mode="bilinear", align_corners=False)  # noqa: E731
+        d3 = self.d3(torch.cat([up(e4, e3), e3], 1))
+        d2 = self.d2(torch.cat([up(d3, e2), e2], 1))
+        d1 = self.d1(torch.cat([up(d2, e1), e1], 1))
+        return self.head(torch.cat([up(d1, x), x], 1))
+
+
+def file_sha256(path: Path) -> str:
+    """Hex sha256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def save_weights(net: OcclusionUNet, path: Path) -> str:
+    """Write the network's state as float32 arrays in an .npz (no pickle); returns the file's sha256."""
+    state = {k: v.detach().cpu().numpy().astype(np.float32) for k, v in net.state_dict().items()
+             if v.dtype.is_floating_point}
+    np.savez_compressed(path, **state)
+    return file_sha256(path)
+
+
+@lru_cache(maxsize=2)
+def load_network(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> OcclusionUNet:
+    """The trained network in eval mode, after checking the weights file's sha256 (shipped in the repository)."""
+    p = Path(path)
+    if not p.exists():
+        raise FileNotFoundError(f"{p}: occlusion network weights missing; fix: run tools/train_occlusion.py or "
+                                "use settings occlusion='skeleton'")
+    digest = file_sha256(p)
+    if sha256 and digest != sha256:
+        raise ValueError(f"{p}: sha256 {digest} differs from the expected {sha256}; fix: restore the file from the "
+                         "repository or retrain with tools/train_occlusion.py (it updates WEIGHTS_SHA256)")
+    net = OcclusionUNet()
+    with np.load(p) as z:
+        state = {k: torch.from_numpy(z[k]) for k in z.files}
+    own = net.state_dict()
+    for k, v in own.items():  # BatchNorm's integer step counters are not stored
+        if k not in state and not v.dtype.is_floating_point:
+            state[k] = v
+    net.load_state_dict(state)
+    net.eval()
+    return net

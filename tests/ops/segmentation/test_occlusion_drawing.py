@@ -1,0 +1,125 @@
+"""Occlusion read off the drawing: front bones, the flat-drawing fallback, the shipped network and its accuracy."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import torch
+
+from ops.segmentation import occlusion_net
+from ops.segmentation.bones import bone_radii
+from ops.segmentation.foreground import segment_foreground
+from ops.segmentation.masks import build_masks
+from ops.segmentation.network_input import colour_channels, paper_colour
+from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
+from ops.segmentation.occlusion_drawing import (
+    flat_fallback,
+    front_and_back,
+    predict_occlusion,
+    region_front_bones,
+    to_uint8,
+)
+from ops.types import Skeleton
+from tests.ops.segmentation.test_masks import crossing_scene, iou
+
+
+def test_forearm_is_in_front_where_it_crosses_the_torso():
+    drawing, pose, skeleton, true, _, _ = crossing_scene()
+    radii = bone_radii(segment_foreground(drawing, pose, skeleton).mask, pose, skeleton)
+    ys, xs = np.nonzero(true)
+    front, back = front_and_back(np.stack([xs, ys], 1), pose, skeleton, radii)
+    assert (front == 3).mean() > 0.9 and (back == 0).mean() > 0.9  # forearm over torso
+    main, fronts = region_front_bones(true, pose, skeleton, radii)
+    assert main == 3 and 0 not in fronts
+
+
+def test_equal_depths_put_the_nearer_bone_in_front():
+    drawing, pose, skeleton, true, _, _ = crossing_scene()
+    flat = pose.copy()
+    flat[:, 2] = 0.0
+    radii = bone_radii(segment_foreground(drawing, pose, skeleton).mask, pose, skeleton)
+    pts = np.array([[60.0, 82.0]])  # on the forearm's segment, inside the torso
+    front, back = front_and_back(pts, flat, skeleton, radii)
+    assert front[0] == 3 and back[0] == 0
+
+
+def test_flat_silhouette_falls_back_to_the_skeleton_rule():
+    drawing, pose, skeleton, true, torso, fore = crossing_scene()
+    fg = torso | fore
+    flat = np.ones(drawing.shape, np.float32)
+    flat[fg] = (0.3, 0.5, 0.8)  # one flat colour: no stroke shows where the arm crosses
+    image = to_uint8(flat)
+    colour = colour_channels(image, paper_colour(image))
+    kept, n, warnings = flat_fallback(colour, np.zeros_like(fg), fg, pose, skeleton)
+    regions = skeleton_occlusion(fg, pose, skeleton)[0]
+    assert n == len(regions) >= 1 and any("no stroke" in w for w in warnings)
+    assert np.array_equal(kept, np.any(regions, axis=0))
+    # the same silhouette with its strokes drawn: the drawing is evidence, nothing is taken from the rule
+    inked = to_uint8(drawing)
+    assert flat_fallback(colour_channels(inked, paper_colour(inked)), np.zeros_like(fg), fg, pose, skeleton)[1] == 0
+    # what the network marked is not taken from the rule either
+    assert flat_fallback(colour, kept, fg, pose, skeleton)[1] == 0
+    got, fronts, _ = predict_occlusion(flat, fg, pose, skeleton)
+    union = np.zeros_like(fg)
+    for r in got:
+        union |= r
+    assert iou(union, true) > 0.5
+    assert all(not (r & ~fg).any() for r in got)
+
+
+def test_crossing_scene_is_read_from_the_drawing():
+    """A toy scene (thin strokes, 160 px, far from the generated characters the network learnt from): the
+    forearm's crossing is found, in front of the torso. The quality gate is the generated-characters test
+    below and benchmarks/bench_occlusion.py."""
+    drawing, pose, skeleton, true, _, _ = crossing_scene()
+    masks = build_masks(drawing, pose, skeleton, occlusion="drawing")
+    assert masks.source == "predicted"
+    best = int(np.argmax([iou(r, true) for r in masks.occlusion]))
+    assert iou(masks.occlusion[best], true) > 0.3
+    assert (masks.occlusion[best] & true).sum() > 0.8 * (masks.occlusion[best]).sum()  # inside the crossing
+    assert 3 in masks.front_bones[best] and 0 not in masks.front_bones[best]
+    for r in masks.occlusion:
+        assert not (r & ~masks.foreground).any()
+
+
+def test_unknown_predictor_is_refused():
+    drawing, pose, skeleton, _, _, _ = crossing_scene()
+    with pytest.raises(ValueError, match="occlusion predictor"):
+        build_masks(drawing, pose, skeleton, occlusion="magic")
+
+
+def test_shipped_weights_match_their_checksum_and_load():
+    assert occlusion_net.file_sha256(occlusion_net.WEIGHTS_PATH) == occlusion_net.WEIGHTS_SHA256
+    assert occlusion_net.WEIGHTS_PATH.stat().st_size < 20e6
+    net = occlusion_net.load_network()
+    x = torch.zeros(1, occlusion_net.IN_CHANNELS, 32, 48)
+    with torch.inference_mode():
+        assert net(x).shape == (1, 1, 32, 48)
+
+
+def test_tampered_weights_are_refused(tmp_path):
+    bad = tmp_path / "w.npz"
+    bad.write_bytes(occlusion_net.WEIGHTS_PATH.read_bytes() + b"x")
+    with pytest.raises(ValueError, match="sha256"):
+        occlusion_net.load_network(str(bad), occlusion_net.WEIGHTS_SHA256)
+
+
+def test_generated_characters_beat_the_skeleton_rule():
+    """A few train-split samples held out from training (indices past the training range, never the test split)."""
+    from data_samples.generator.occlusion_set import make_sample
+
+    ours, rule = [], []
+    for i in range(7_000_000, 7_000_005):  # one of each class
+        s = make_sample("train", i)
+        skeleton = Skeleton(tuple(s.joints), np.asarray(s.parents, np.int64))
+        fg = s.foreground > 0.5
+        regions, fronts, _ = predict_occlusion(s.image, fg, s.pose, skeleton)
+        assert len(regions) == len(fronts) and all(len(f) >= 1 for f in fronts)
+        union = np.zeros_like(fg)
+        for r in regions:
+            union |= r
+        ours.append(iou(union, s.occlusion_union))
+        skel = np.zeros_like(fg)
+        for r in skeleton_occlusion(fg, s.pose, skeleton)[0]:
+            skel |= r
+        rule.append(iou(skel, s.occlusion_union))
+    assert np.mean(ours) > 0.55 and np.mean(ours) > np.mean(rule) + 0.2
