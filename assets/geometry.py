@@ -28,7 +28,8 @@ def _masks(k: int):
         manual_fg = _mask_image(fg, f"masks.foreground[{k}]") if fg else None
         manual_occ = [_mask_image(p, f"masks.occlusion[{k}][{i}]") for i, p in enumerate(shot.occlusion_masks[k])] or None
         drawing = env.drawing(k)
-        masks = build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ, source=shot.keyframes[k])
+        masks = build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ, source=shot.keyframes[k],
+                            occlusion=env.settings.occlusion)
         for w in masks.warnings:
             env.context.log.warning(w)
         meta = {"regions": len(masks.occlusion), "foreground_px": int(masks.foreground.sum()), "source": masks.source,

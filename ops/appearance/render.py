@@ -19,6 +19,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from ops.appearance.layers import layer_depth, layer_groups
 from ops.types import TexturedTemplate
 
 SHIFT = 8  # cv2 fixed-point fraction bits: 1/256 px vertex accuracy
@@ -109,9 +110,15 @@ def unpremultiply(rgba: np.ndarray, eps: float = 1e-6) -> np.ndarray:
     return np.clip(out, 0.0, 1.0)
 
 
-def depth_order(textured: TexturedTemplate, pose: np.ndarray) -> np.ndarray:
-    """(m,) face indices back to front: larger depth first; on ties pockets (layer > 0) before the front sheet."""
-    depth = np.round(textured.face_depth(pose), _DEPTH_DECIMALS)
+def depth_order(textured: TexturedTemplate, pose: np.ndarray, groups: np.ndarray | None = None) -> np.ndarray:
+    """(m,) face indices back to front: larger depth first; on ties pockets (layer > 0) before the front sheet.
+
+    The faces of each overlapping layer (a region's front-sheet faces, its pocket) share the layer's mean depth
+    (ops.appearance.layers), as when texturing chose which of them shows the drawing. groups: (m,) from
+    layer_groups, computed here when not given.
+    """
+    groups = layer_groups(textured.template) if groups is None else groups
+    depth = np.round(layer_depth(textured.face_depth(pose), groups), _DEPTH_DECIMALS)
     front_sheet = (textured.template.face_layer == 0).astype(np.int64)
     return np.lexsort((front_sheet, -depth))
 
@@ -135,11 +142,12 @@ class Renderer:
         self.textured = textured
         self.front = premultiply(textured.texture)
         self.back = premultiply(textured.back_texture)
+        self.groups = layer_groups(textured.template)
 
     def _samples(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], s: int):
         """Premultiplied RGBA of every supersample (H*s, W*s, 4), and the back map and hidden-face mask behind it."""
         tpl = self.textured.template
-        ids = rasterize_ids(X, tpl.faces, depth_order(self.textured, pose), shape, s)
+        ids = rasterize_ids(X, tpl.faces, depth_order(self.textured, pose, self.groups), shape, s)
         map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
         hidden = (ids >= 0) & (self.textured.face_source.take(np.maximum(ids, 0)) > 0)  # the back texture's faces
         # each texture is sampled only where it is selected (the other map points off-texture, giving 0),

@@ -14,6 +14,7 @@ import numpy as np
 from scipy import ndimage
 
 from ops.appearance.inpaint import Inpainter
+from ops.appearance.layers import region_of_front_faces
 from ops.appearance.render import affine_maps, rasterize_ids
 from ops.types import RefinedMasks, Template, TexturedTemplate
 
@@ -46,21 +47,6 @@ def character_rgba(masks: RefinedMasks) -> np.ndarray:
     return np.concatenate([masks.colour, masks.coverage[..., None]], axis=2).astype(np.float32)
 
 
-def _region_of_front_faces(template: Template) -> np.ndarray:
-    """(m,) int64 occlusion region of each front-sheet face (-1 outside every region or not on the front sheet).
-
-    A pocket (layer r + 1) is a copy of region r's front-sheet faces at the same rest positions, so a front-sheet
-    face belongs to region r when a layer r + 1 face has its rest centroid.
-    """
-    F, layer = template.faces, template.face_layer
-    key = np.round(template.rest[F].mean(axis=1) * 1e4).astype(np.int64)
-    region_of = {tuple(k): int(lay) - 1 for k, lay in zip(key[layer > 0], layer[layer > 0])}
-    out = np.full(len(F), -1, np.int64)
-    for f in np.nonzero(layer == 0)[0]:
-        out[f] = region_of.get(tuple(key[f]), -1)
-    return out
-
-
 def drawing_faces(template: Template, weights: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """(m,) bool: the faces that show the drawing at the keyframe's own pose (J, 3).
 
@@ -70,7 +56,7 @@ def drawing_faces(template: Template, weights: np.ndarray, pose: np.ndarray) -> 
     """
     F, layer = template.faces, template.face_layer
     depth = (weights @ np.asarray(pose, np.float64)[:, 2])[F].mean(axis=1)
-    front_region = _region_of_front_faces(template)
+    front_region = region_of_front_faces(template)
     shows = layer == 0
     for r in range(int(layer.max())):
         sheet, pocket = (layer == 0) & (front_region == r), layer == r + 1

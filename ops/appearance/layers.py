@@ -1,0 +1,53 @@
+"""The layers that overlap at rest: each occlusion region's front-sheet faces and its pocket (§5.1).
+
+Their order is decided once per layer, from the bounded biharmonic depth averaged over the layer, both when
+texturing (which layer shows the drawing at the keyframe) and when rendering (which layer is drawn in
+front): per-face depths would let single faces of the hidden layer poke through the shown one.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ops.types import Template
+
+
+def region_of_front_faces(template: Template) -> np.ndarray:
+    """(m,) int64 occlusion region of each front-sheet face (-1 outside every region or not on the front sheet).
+
+    A pocket (layer r + 1) is a copy of region r's front-sheet faces at the same rest positions, so a front-sheet
+    face belongs to region r when a layer r + 1 face has its rest centroid.
+    """
+    F, layer = template.faces, template.face_layer
+    key = np.round(template.rest[F].mean(axis=1) * 1e4).astype(np.int64)
+    pocket = layer > 0
+    out = np.full(len(F), -1, np.int64)
+    if not pocket.any():
+        return out
+    keys, inverse = np.unique(np.concatenate([key[pocket], key[~pocket]]), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    region_of = np.full(len(keys), -1, np.int64)
+    n_pocket = int(pocket.sum())
+    region_of[inverse[:n_pocket]] = layer[pocket] - 1
+    out[np.nonzero(~pocket)[0]] = region_of[inverse[n_pocket:]]
+    out[pocket] = -1
+    return out
+
+
+def layer_groups(template: Template) -> np.ndarray:
+    """(m,) int64 group of each face: 2r for region r's front-sheet faces, 2r + 1 for its pocket, -1 elsewhere."""
+    groups = 2 * region_of_front_faces(template)
+    groups[groups < 0] = -1
+    pocket = template.face_layer > 0
+    groups[pocket] = 2 * (template.face_layer[pocket] - 1) + 1
+    return groups
+
+
+def layer_depth(face_depth: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """(m,) depth with each group's faces given the group's mean depth; faces outside every group keep theirs."""
+    out = np.array(face_depth, np.float64, copy=True)
+    inside = groups >= 0
+    if inside.any():
+        sums = np.bincount(groups[inside], weights=out[inside])
+        counts = np.bincount(groups[inside])
+        out[inside] = sums[groups[inside]] / counts[groups[inside]]
+    return out
