@@ -118,7 +118,18 @@ def build_definitions(settings: Settings | None = None) -> dg.Definitions:
                           loggers={"console": dg.colored_console_logger, "file": file_logger})
 
 
+def current_place() -> tuple[str, str]:
+    """(home, shots root) of this process now: where Definitions built now would read and write."""
+    return str(home()), str(shots_root())
+
+
+_BUILT_FOR = current_place()
 defs = build_definitions()
+
+
+def built_for() -> tuple[str, str]:
+    """(home, shots root) that the module's `defs` were built for."""
+    return _BUILT_FOR
 
 
 def farm_job() -> dg.JobDefinition:

@@ -317,8 +317,10 @@ class Session:
 
         self.dg = dg
         self.settings = settings
-        # the module's Definitions (the UI's) serve the default settings: Definitions are built once per process
-        self.defs = definitions.defs if settings == Settings() else definitions.build_definitions(settings)
+        # the module's Definitions (the UI's) serve the default settings while the home and shots root they were
+        # built for are still this process's (a test, the editor, may change them): built once per process
+        self.defs = (definitions.defs if settings == Settings() and definitions.built_for() == definitions.current_place()
+                     else definitions.build_definitions(settings))
         self.resources = dict(self.defs.resources)
         self.job = self.defs.resolve_implicit_global_asset_job_def()
         self.instance = open_instance()
