@@ -29,16 +29,23 @@ EXIT_FAILED = 1
 
 
 def _settings(args) -> Settings:
-    return Settings(blend=getattr(args, "blend", "optimal"), template_mode=getattr(args, "template", "optimized"))
+    return Settings(blend=getattr(args, "blend", "optimal"), template_mode=getattr(args, "template", "optimized"),
+                    occlusion=getattr(args, "occlusion", "drawing"))
 
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="inbetween", description="Skeleton-driven inbetweening of bitmap drawings.")
     sub = parser.add_subparsers(dest="command", required=True)
 
+    def occlusion_flag(p):
+        p.add_argument("--occlusion", choices=["drawing", "skeleton"], default="drawing",
+                       help="predict occlusion masks from the drawing (a small network, the skeleton as a guide) "
+                            "or from the skeleton alone")
+
     def method_flags(p):
         p.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
         p.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
+        occlusion_flag(p)
         p.add_argument("--verbose", action="store_true", help="show Dagster's event log live")
         p.add_argument("--debug", action="store_true", help="print the full trace when a stage fails")
 
@@ -58,11 +65,13 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--json", action="store_true", help="print the statuses as JSON")
     s.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
     s.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
+    occlusion_flag(s)
     m = sub.add_parser("masks", help="write a shot's masks in the form masks.foreground / masks.occlusion accept")
     m.add_argument("shot_dir")
     m.add_argument("--out", required=True)
     m.add_argument("--predicted", action="store_true",
                    help="the occlusion masks as predicted, before the T-junctions refine them")
+    occlusion_flag(m)
     e = sub.add_parser("eval", help="evaluate shots that carry ground truth")
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
@@ -189,7 +198,7 @@ def _status(args) -> int:
 def _masks(args) -> int:
     from .runs import export_masks
 
-    for path in export_masks(args.shot_dir, args.out, predicted=args.predicted):
+    for path in export_masks(args.shot_dir, args.out, _settings(args), predicted=args.predicted):
         print(path)
     return 0
 
