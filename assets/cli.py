@@ -75,6 +75,7 @@ def _parser() -> argparse.ArgumentParser:
     e = sub.add_parser("eval", help="evaluate shots that carry ground truth")
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
+    occlusion_flag(e)
     sub.add_parser("ui", help="open the Dagster UI on this project's instance")
     ed = sub.add_parser("edit", help="annotate a shot in the browser; saving reruns it incrementally")
     ed.add_argument("shot_dir")
@@ -206,7 +207,7 @@ def _masks(args) -> int:
 def _eval(args) -> int:
     from .evaluation_cli import evaluate_root
 
-    return evaluate_root(args.shots_root, args.out)
+    return evaluate_root(args.shots_root, args.out, _settings(args))
 
 
 def _ui(args) -> int:

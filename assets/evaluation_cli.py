@@ -27,7 +27,7 @@ def _markdown(df: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def evaluate_root(root: str | Path, out: str | Path | None = None) -> int:
+def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None) -> int:
     from .runs import evaluate_stages, run_shot, store
 
     root = Path(root)
@@ -38,8 +38,8 @@ def evaluate_root(root: str | Path, out: str | Path | None = None) -> int:
     tables, figure_rows = [], []
     st = store()
     for d in shots:
-        run_shot(d, out / "runs" / d.name)
-        partition = evaluate_stages(d)
+        run_shot(d, out / "runs" / d.name, settings)
+        partition = evaluate_stages(d, settings)
         table = st.read("evaluation/metrics", partition)
         tables.append(table.assign(shot=d.name))
         if json.loads((d / "shot.json").read_text()).get("t_junctions", [[], []]) != [[], []]:

@@ -92,7 +92,9 @@ def build_masks(
     warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
     if predicted and occlusion == "drawing":
-        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton)
+        # no pockets where bones that share a joint overlap: the mesh bends there, and a pocket at an elbow
+        # or a hip opened as a dark blob when the limb moved (arm_cross: 25.2 -> 25.5 dB, Chamfer 30.2 -> 28.1)
+        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False)
         warnings += w
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)

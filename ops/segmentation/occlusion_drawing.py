@@ -85,6 +85,16 @@ def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
     return main, np.array(sorted(int(b) for b in keep), np.int64)
 
 
+def is_joint_overlap(region: np.ndarray, main: int, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray) -> bool:
+    """Whether a region is where two bones that share a joint overlap (the round ends at an elbow, a shoulder,
+    a hip): the bone most often behind it is a neighbour of its main front bone."""
+    ys, xs = np.nonzero(region)
+    step = max(1, len(xs) // MAX_VOTERS)
+    _, back = front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
+    behind = int(np.argmax(np.bincount(back, minlength=len(skeleton.bones))))
+    return behind != main and bool(skeleton.adjacent_bones()[behind, main])
+
+
 def edge_map(colour: np.ndarray) -> np.ndarray:
     """(h, w) bool strokes and colour edges of (3, h, w) float32 paper-relative colour (network_input's first
     channels, 2 units = full scale): a colour step above EDGE_LEVEL."""
@@ -122,13 +132,14 @@ def flat_fallback(colour: np.ndarray, marked: np.ndarray, foreground: np.ndarray
     return out, kept, warnings
 
 
-def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
-                      ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                      joint_overlaps: bool = True) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
     """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (b,)
     int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther).
 
     The network, the fallback and the front bones work at the network's working scale (the character about
     WORK_EXTENT_PX across); only the final mask is brought back to the keyframe's resolution.
+    joint_overlaps False leaves out the regions where two bones that share a joint overlap (is_joint_overlap).
     """
     image = drawing if drawing.dtype == np.uint8 and drawing.ndim == 3 else to_uint8(drawing)
     fg = np.asarray(foreground, bool)
@@ -155,6 +166,8 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
         region = np.zeros(fg.shape, bool)
         region[box] = labels[box] == lab
         main, front = region_front_bones(region, pose, skeleton, radii)
+        if not joint_overlaps and is_joint_overlap(region, main, pose, skeleton, radii):
+            continue
         regions.append(region)
         fronts.append(front)
         keys.append(-depth[main])  # larger z (farther) first: back to front

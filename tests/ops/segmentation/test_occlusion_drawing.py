@@ -123,3 +123,15 @@ def test_generated_characters_beat_the_skeleton_rule():
             skel |= r
         rule.append(iou(skel, s.occlusion_union))
     assert np.mean(ours) > 0.55 and np.mean(ours) > np.mean(rule) + 0.2
+
+
+def test_leaving_out_joint_overlaps_keeps_the_crossing():
+    """joint_overlaps=False drops only regions whose bones share a joint: the forearm over the torso stays."""
+    drawing, pose, skeleton, true, torso, fore = crossing_scene()
+    fg = torso | fore
+    every, _, _ = predict_occlusion(drawing, fg, pose, skeleton)
+    kept, kept_fronts, _ = predict_occlusion(drawing, fg, pose, skeleton, joint_overlaps=False)
+    assert {r.tobytes() for r in kept} <= {r.tobytes() for r in every}
+    assert len(kept) < len(every)  # the toy scene's elbow and shoulder overlaps are left out
+    best = int(np.argmax([iou(r, true) for r in kept]))
+    assert iou(kept[best], true) > 0.3 and 3 in kept_fronts[best]
