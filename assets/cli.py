@@ -30,7 +30,7 @@ EXIT_FAILED = 1
 
 def _settings(args) -> Settings:
     return Settings(blend=getattr(args, "blend", "optimal"), template_mode=getattr(args, "template", "optimized"),
-                    occlusion=getattr(args, "occlusion", "drawing"))
+                    occlusion=getattr(args, "occlusion", "skeleton"))
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -38,9 +38,9 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     def occlusion_flag(p):
-        p.add_argument("--occlusion", choices=["drawing", "skeleton"], default="drawing",
-                       help="predict occlusion masks from the drawing (a small network, the skeleton as a guide) "
-                            "or from the skeleton alone")
+        p.add_argument("--occlusion", choices=["skeleton", "drawing"], default="skeleton",
+                       help="predict occlusion masks from the skeleton alone, or read them off the drawing (a small "
+                            "network, the skeleton as a guide)")
 
     def method_flags(p):
         p.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")

@@ -75,7 +75,7 @@ def build_masks(
     manual_foreground: np.ndarray | None = None,
     manual_occlusion: list[np.ndarray] | None = None,
     source: str = "drawing",
-    occlusion: str = "drawing",
+    occlusion: str = "skeleton",
 ) -> Masks:
     """Masks of a (H, W, C) float32 drawing at a (J, 3) pose; manual masks ((H, W) bool/float) override.
 

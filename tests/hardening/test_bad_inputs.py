@@ -117,10 +117,10 @@ BAD_INPUTS = [
 def test_bad_input_fails_at_once_in_one_line(tmp_path, edit, field, words):
     shot = write_shot(tmp_path / "shot")
     edit(shot)
-    start = time.perf_counter()
+    start = time.process_time()  # CPU time: "at once" must not depend on what else the machine runs
     with pytest.raises(ShotError) as e:
         load_shot(shot)
-    assert time.perf_counter() - start < 1.0
+    assert time.process_time() - start < 1.0
     message = str(e.value)
     assert "\n" not in message and f": {field}: " in message and words in message and "; fix: " in message
 
