@@ -85,6 +85,7 @@ def test_put_writes_atomically_keeps_backup_and_reports_its_rerun_at_once(serve,
     assert st["error"] is None
 
 
+@pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
 def test_second_put_supersedes_the_running_rerun(serve, small_shot):
     s = serve(small_shot, "--sleep", "2")
     shot = call_json(s.url + "/api/shot")[1]

@@ -6,6 +6,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from editor.rerun import Reruns, error_line
 
 from .conftest import fake_command
@@ -16,6 +18,7 @@ def make(tmp_path, *extra) -> Reruns:
     return Reruns(tmp_path / "shot", "shot", work, tmp_path / "home", tmp_path, fake_command("shot", work / "out", *extra))
 
 
+@pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
 def test_restarted_editor_follows_a_rerun_that_still_runs(tmp_path):
     first = make(tmp_path, "--sleep", "0.6")
     first.start()

@@ -45,6 +45,7 @@ def test_documented_run_config_is_valid_for_the_farm_job(monkeypatch):
         dg.validate_run_config(farm_job(), {"execution": {"config": {"brokr": "redis://x"}}})
 
 
+@pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
 def test_a_second_delivery_of_a_step_waits_for_the_first(tmp_path, monkeypatch):
     """Two workers given the same task id: the second runs only once the first has released it."""
     from assets.farm.worker import hold_step, release_step

@@ -143,6 +143,7 @@ def test_optimize_picks_the_lowest_energy():
     assert tpl.cut_assignment[0].tolist() == ([0, 1] if energies[0] <= energies[1] else [1, 0])
 
 
+@pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
 def test_odd_search_is_reproducible():
     refined, sk, p0, p1 = capsule_scene(junctions=(5,))
     a = optimize_topology(refined, p0, p1, sk, seed=0)
