@@ -406,9 +406,15 @@ def open_instance():
 
     from .home import dagster_home
 
+    lock = home() / "locks" / "dagster-instance.lock"
+    lock.parent.mkdir(parents=True, exist_ok=True)
     try:
-        instance = dg.DagsterInstance.get()
-        instance.get_runs_count()  # opens the run storage: a damaged SQLite file fails here, not mid-run
+        # one process at a time: two processes opening a new SQLite home both create its tables, and the
+        # second fails with "table jobs already exists" (batch workers starting on a fresh home)
+        with open(lock, "w") as f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+            instance = dg.DagsterInstance.get()
+            instance.get_runs_count()  # opens the run storage: a damaged SQLite file fails here, not mid-run
         return instance
     except Exception as e:
         if _database_locked(e):
