@@ -30,7 +30,7 @@ EXIT_FAILED = 1
 
 def _settings(args) -> Settings:
     return Settings(blend=getattr(args, "blend", "optimal"), template_mode=getattr(args, "template", "optimized"),
-                    occlusion=getattr(args, "occlusion", "skeleton"))
+                    occlusion=getattr(args, "occlusion", Settings().occlusion))
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -38,7 +38,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     def occlusion_flag(p):
-        p.add_argument("--occlusion", choices=["skeleton", "drawing"], default="skeleton",
+        p.add_argument("--occlusion", choices=["skeleton", "drawing"], default=Settings().occlusion,
                        help="predict occlusion masks from the skeleton alone, or read them off the drawing (a small "
                             "network, the skeleton as a guide)")
 

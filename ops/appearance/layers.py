@@ -28,8 +28,7 @@ def region_of_front_faces(template: Template) -> np.ndarray:
     region_of = np.full(len(keys), -1, np.int64)
     n_pocket = int(pocket.sum())
     region_of[inverse[:n_pocket]] = layer[pocket] - 1
-    out[np.nonzero(~pocket)[0]] = region_of[inverse[n_pocket:]]
-    out[pocket] = -1
+    out[~pocket] = region_of[inverse[n_pocket:]]
     return out
 
 

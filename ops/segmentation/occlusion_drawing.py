@@ -68,29 +68,36 @@ def front_and_back(points: np.ndarray, pose: np.ndarray, skeleton: Skeleton, rad
     return front.astype(np.int64), back.astype(np.int64)
 
 
-def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
-                       ) -> tuple[int, np.ndarray]:
-    """Main front bone and (b,) int64 front bones of a (H, W) bool region; radii: (B,) body radii, pixels.
+def region_votes(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) int64 front and back bone at an even subsample of a (H, W) bool region's pixels (at most MAX_VOTERS:
+    a subsample of a large region says the same)."""
+    ys, xs = np.nonzero(region)
+    step = max(1, len(xs) // MAX_VOTERS)
+    return front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
+
+
+def front_bones_of(front: np.ndarray, back: np.ndarray, n_bones: int) -> tuple[int, np.ndarray]:
+    """Main front bone and (b,) int64 front bones from a region's votes (region_votes).
 
     Front bones: those in front on at least MIN_FRONT_SHARE of its pixels, less any bone that lies behind
     on more of them than in front (a region where the forearm covers the torso has the forearm only).
     """
-    ys, xs = np.nonzero(region)
-    step = max(1, len(xs) // MAX_VOTERS)  # a vote: an even subsample of a large region says the same
-    front, back = front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
-    nb = len(skeleton.bones)
-    fc, bc = np.bincount(front, minlength=nb), np.bincount(back, minlength=nb)
+    fc, bc = np.bincount(front, minlength=n_bones), np.bincount(back, minlength=n_bones)
     main = int(np.argmax(fc))
     keep = [b for b in np.nonzero(fc >= MIN_FRONT_SHARE * len(front))[0] if b == main or fc[b] > bc[b]]
     return main, np.array(sorted(int(b) for b in keep), np.int64)
 
 
-def is_joint_overlap(region: np.ndarray, main: int, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray) -> bool:
+def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
+                       ) -> tuple[int, np.ndarray]:
+    """Main front bone and (b,) int64 front bones of a (H, W) bool region; radii: (B,) body radii, pixels."""
+    return front_bones_of(*region_votes(region, pose, skeleton, radii), len(skeleton.bones))
+
+
+def is_joint_overlap(main: int, back: np.ndarray, skeleton: Skeleton) -> bool:
     """Whether a region is where two bones that share a joint overlap (the round ends at an elbow, a shoulder,
-    a hip): the bone most often behind it is a neighbour of its main front bone."""
-    ys, xs = np.nonzero(region)
-    step = max(1, len(xs) // MAX_VOTERS)
-    _, back = front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
+    a hip): the bone most often behind it (back: its votes) is a neighbour of its main front bone."""
     behind = int(np.argmax(np.bincount(back, minlength=len(skeleton.bones))))
     return behind != main and bool(skeleton.adjacent_bones()[behind, main])
 
@@ -165,8 +172,9 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
             continue
         region = np.zeros(fg.shape, bool)
         region[box] = labels[box] == lab
-        main, front = region_front_bones(region, pose, skeleton, radii)
-        if not joint_overlaps and is_joint_overlap(region, main, pose, skeleton, radii):
+        votes_front, votes_back = region_votes(region, pose, skeleton, radii)
+        main, front = front_bones_of(votes_front, votes_back, len(skeleton.bones))
+        if not joint_overlaps and is_joint_overlap(main, votes_back, skeleton):
             continue
         regions.append(region)
         fronts.append(front)
