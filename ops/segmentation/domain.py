@@ -18,15 +18,23 @@ DP_EPS_PX = 1.0  # Douglas-Peucker tolerance of the domain outlines (less than t
 MIN_LOOP_AREA_PX = 4.0  # components or holes smaller than this are not meshed
 
 
-def mesh_domain(foreground: np.ndarray, coverage: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
-    """(H, W) bool foreground and float32 coverage -> (closed polylines (n_i, 2) float64 pixels, (h, 2) hole points).
+def mesh_domain(
+    foreground: np.ndarray, coverage: np.ndarray, holes: np.ndarray | None = None,
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """(H, W) bool foreground, float32 coverage and optional (H, W) bool holes -> (closed polylines (n_i, 2)
+    float64 pixels, (h, 2) hole points).
 
+    The margin grows at most a pixel into a hole: a hole between an arm and the body is often only a few
+    pixels wide once its fringe belongs to the character, and the full margin would glue the arm to the body.
     Outer outlines have positive shoelace area, hole outlines negative (image coordinates, y down).
     """
     support = np.asarray(foreground, bool) | (np.asarray(coverage) > 0)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * DILATE_PX + 1,) * 2)
     pad = DILATE_PX + 1
     domain = cv2.dilate(np.pad(support.astype(np.uint8), pad), kernel)
+    if holes is not None:  # a pixel of margin into a hole, so the outline's last pixels are wholly inside
+        near = cv2.dilate(support.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        domain[np.pad(np.asarray(holes, bool) & ~near, pad)] = 0
     contours, hierarchy = cv2.findContours(domain, cv2.RETR_CCOMP, cv2.CHAIN_APPROX_NONE)
     loops, holes = [], []
     for c, (_, _, _, parent) in zip(contours, hierarchy.reshape(-1, 4) if hierarchy is not None else []):

@@ -241,7 +241,7 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         fronts.append(front)
         bounds.append(B)
         juncs.append(jidx)
-    domain, holes = mesh_domain(fg, masks.coverage)
+    domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,

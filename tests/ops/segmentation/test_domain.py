@@ -35,3 +35,20 @@ def test_soft_fringe_is_inside_and_components_are_separate():
     assert len(loops) == 2 and len(holes) == 0 and all(polygon_area(L) > 0 for L in loops)
     assert points_in_domain(_pixels(cov > 0), loops).all()
     assert not points_in_domain(np.array([[45.0, 20.0]]), loops).any()  # the paper between them is not meshed
+
+
+def test_a_narrow_hole_stays_open():
+    """The space between a hand on the hip and the torso: 4 px of paper that the 2 px margin would close."""
+    fg = np.zeros((60, 60), bool)
+    fg[10:50, 10:50] = True
+    slit = np.zeros_like(fg)
+    slit[20:40, 28:32] = True  # 4 px wide, 20 px tall, enclosed
+    fg &= ~slit
+    cov = fg.astype(np.float32)
+    closed_loops, closed_holes = mesh_domain(fg, cov)
+    assert len(closed_holes) == 0  # without the holes, the margin glues the two sides together
+    loops, holes = mesh_domain(fg, cov, slit)
+    assert len(loops) == 2 and len(holes) == 1 and slit[int(holes[0][1]), int(holes[0][0])]
+    assert points_in_domain(_pixels(fg), loops).all()
+    core = slit & ~(cv2.dilate(fg.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0)
+    assert core.sum() == 2 * 18 and not points_in_domain(_pixels(core), loops).any()  # all but a pixel of margin
