@@ -158,7 +158,9 @@ def is_cutout(rgba: np.ndarray) -> bool:
 def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
     """Foreground of a (H, W, C) float32 drawing whose (H, W) bool mask is given (a manual mask): its soft edge.
 
-    The mask stays exactly as given; coverage falls off only on its page-facing fringe, read from the drawing.
+    The mask stays exactly as given (it is what `inbetween masks` writes back). Coverage is read from the
+    drawing on the mask's page-facing fringe and up to MARGIN_PX past it: a mask painted tight along the
+    outline, cutting its outer half, keeps the stroke's drawn width; paper there stays transparent.
     """
     rgba = to_rgba(drawing)
     mask = np.asarray(mask, bool)
@@ -171,8 +173,10 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
     sealed = closing(page.smooth_delta > page.ink_delta, close_radius(mask.shape)) & mask
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
+    reach = (cv2.dilate(mask.astype(np.uint8), disc) > 0) & ~holes
     coverage, colour = unmix(
-        rgb, page.paper.rgb, mask, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
+        rgb, page.paper.rgb, mask, reach, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
         page.paper_delta,
     )
     return Foreground(

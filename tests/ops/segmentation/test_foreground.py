@@ -8,7 +8,7 @@ import numpy as np
 from scipy import ndimage
 
 from ops.segmentation.bones import bone_capsules, segment_distance
-from ops.segmentation.foreground import foreground_from_mask, segment_foreground
+from ops.segmentation.foreground import MARGIN_PX, foreground_from_mask, segment_foreground
 from ops.segmentation.paper import estimate_paper, linear_to_srgb, srgb_to_linear
 from ops.shotio.image_io import read_image
 from ops.shotio.load import load_shot
@@ -331,3 +331,16 @@ def test_curled_tail_sample_gets_its_enclosed_paper_as_a_hole():
     inner = ndimage.distance_transform_edt(loop) > 4  # less the mask's rim past the outline
     assert fg.n_holes >= 1 and inner.sum() > 50
     assert fg.holes[inner].mean() > 0.9 and not fg.mask[inner].any()
+
+
+def test_tight_manual_mask_keeps_the_outline_drawn_width():
+    """A mask painted a pixel inside the drawn edge: the drawing is still reproduced, the mask kept as painted."""
+    cov = anti_aliased_disc()
+    drawing = noisy(paint(OFF_WHITE, [(cov, INK)]), 0.002)
+    tight = ndimage.distance_transform_edt(cov >= 0.999) > 1  # cuts the soft edge and a pixel of full ink
+    assert (cov[~tight] > 0.5).sum() > 50
+    fg = foreground_from_mask(drawing, tight)
+    np.testing.assert_array_equal(fg.mask, tight)
+    everywhere = np.ones(tight.shape, bool)
+    assert psnr(recomposed(fg), drawing, everywhere) >= 40
+    assert (fg.coverage[ndimage.distance_transform_edt(~tight) > MARGIN_PX + 1] == 0).all()
