@@ -13,6 +13,8 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
+from ops.geometry.mesh import points_in_polygon
+
 DILATE_PX = 2  # margin of the domain beyond the last pixel with coverage
 DP_EPS_PX = 1.0  # Douglas-Peucker tolerance of the domain outlines (less than the margin)
 MIN_LOOP_AREA_PX = 4.0  # components or holes smaller than this are not meshed
@@ -44,12 +46,15 @@ def mesh_domain(
         if len(P) < 3:
             continue
         is_hole = parent >= 0
+        seed = _point_inside(c, domain.shape, pad) if is_hole else None
+        if is_hole and not points_in_polygon(seed[None], P)[0]:
+            continue  # a sliver of a hole that the simplified outline no longer encloses: its seed would eat the mesh
         area = 0.5 * float(np.dot(P[:, 0], np.roll(P[:, 1], -1)) - np.dot(np.roll(P[:, 0], -1), P[:, 1]))
         if (area < 0) != is_hole:
             P = P[::-1].copy()
         loops.append(P)
         if is_hole:
-            holes.append(_point_inside(c, domain.shape, pad))
+            holes.append(seed)
     return loops, np.asarray(holes, np.float64).reshape(-1, 2)
 
 
