@@ -5,8 +5,8 @@ character's domain (every component, paper enclosed by the body left open as
 holes; ops.segmentation.domain) whose occlusion-region boundaries are internal
 constraint loops, so every region is a union of faces. Each region r later gets a pocket (layer
 r + 1, a copy of its faces) whose sewing is decided by the cut assignment
-(ops.topology). Handles are vertices inserted at every joint and bone
-midpoint (ops.geometry.handles); inside region r a handle sits on the front
+(ops.topology). Handles are vertices inserted at every joint and at
+fixed fractions along every bone (ops.geometry.handles); inside region r a handle sits on the front
 sheet if its bone is one of the region's front bones, otherwise on the pocket.
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ class TemplateBase:
     face_region: np.ndarray  # (m,) int64 occlusion region containing the face, -1 if none
     handle_vertex: np.ndarray  # (h,) int64 front-sheet vertex of each handle
     handle_layer: np.ndarray  # (h,) int64 0 = front sheet, r + 1 = pocket of region r
-    handle_weights: np.ndarray  # (h, J) float64 one-hot (joint), 0.5/0.5 (bone midpoint) or (1 - u, u) on a bone
+    handle_weights: np.ndarray  # (h, J) float64 one-hot (joint) or (1 - u, u) at u along a bone
     handle_offsets: np.ndarray  # (h, 2) float64 offset from the skeleton point along/across its bone (handles.py)
     handle_frames: np.ndarray  # (h, 2) int64 joints of the bone the offset turns with
     boundaries: list[np.ndarray]  # per region (n_r, 2) float64 boundary polyline, pixels

@@ -3,8 +3,9 @@ import cv2
 import numpy as np
 import pytest
 
-from ops.geometry.deform import count_flipped
-from ops.geometry.handles import handle_points, place_handles
+from ops.geometry import handles as handles_module
+from ops.geometry.deform import Deformer, count_flipped
+from ops.geometry.handles import BONE_FRACTIONS, handle_points, place_handles
 from ops.geometry.mesh import points_in_polygon, signed_areas
 from ops.geometry.template import build_template
 from ops.geometry.topology import optimize_topology
@@ -48,15 +49,17 @@ def capsule_scene(scale=1.0, junctions=(3, 12)):
 def test_handle_points_and_weights():
     _, sk, pose, _ = capsule_scene()
     P, W, names = handle_points(pose, sk)
-    J, B = 5, 4
-    assert P.shape == (J + B, 2) and W.shape == (J + B, J)
+    J, B, f = 5, 4, len(BONE_FRACTIONS)
+    assert P.shape == (J + f * B, 2) and W.shape == (J + f * B, J)
     assert np.allclose(W.sum(1), 1.0)
     assert np.allclose(P[:J], pose[:, :2])
-    assert np.allclose(P[J:], 0.5 * (pose[sk.bones[:, 0], :2] + pose[sk.bones[:, 1], :2]))
-    assert names[J] == "hips-neck midpoint"
+    a, b = pose[sk.bones[:, 0], :2], pose[sk.bones[:, 1], :2]
+    for i, u in enumerate(BONE_FRACTIONS):  # on the bone, at its fraction of the way from parent to child
+        assert np.allclose(P[J + i * B : J + (i + 1) * B], (1 - u) * a + u * b)
+    assert names[J + BONE_FRACTIONS.index(0.5) * B] == "hips-neck at 0.50"
 
 
-def test_template_mesh_and_handles():
+def test_template_mesh_and_handles(midpoint_handles):
     refined, sk, pose, _ = capsule_scene()
     base = build_template(refined, pose, sk)
     assert (signed_areas(base.V, base.F) > 0).all()
@@ -78,7 +81,7 @@ def test_template_mesh_and_handles():
     assert base.handle_layer.tolist() == [0, 0, 0, 0, 0, 1, 0, 0, 0]
 
 
-def test_handle_layers_follow_front_bones():
+def test_handle_layers_follow_front_bones(midpoint_handles):
     refined, sk, pose, _ = capsule_scene()
     refined.front_bones[0] = np.array([], np.int64)  # nothing in front: every inside handle on the pocket
     assert np.nonzero(build_template(refined, pose, sk).handle_layer)[0].tolist() == [3, 4, 5, 8]
@@ -96,7 +99,7 @@ def test_single_layer_ignores_occlusions():
     assert count_flipped(tpl.rest, tpl.faces) == 0
 
 
-def test_optimized_template_rest_state():
+def test_optimized_template_rest_state(midpoint_handles):
     refined, sk, pose, pose1 = capsule_scene()
     tpl = optimize_topology(refined, pose, pose1, sk)
     assert count_flipped(tpl.rest, tpl.faces) == 0
@@ -109,7 +112,7 @@ def test_optimized_template_rest_state():
     assert tpl.trials == 2 and np.isfinite(tpl.energy)
 
 
-def test_handle_outside_is_snapped_and_its_target_keeps_the_offset():
+def test_handle_outside_is_snapped_and_its_target_keeps_the_offset(midpoint_handles):
     square = np.array([[0, 0], [20, 0], [20, 20], [0, 20]], float)
     sk = Skeleton(joints=("a", "b"), parents=np.array([-1, 0]))
     pose = np.array([[10.0, 10.0, 0.0], [26.0, 8.0, 0.0]])
@@ -127,7 +130,7 @@ def test_handle_outside_is_snapped_and_its_target_keeps_the_offset():
     assert np.isclose(np.linalg.norm(t[1] - turned[0, :2]), np.linalg.norm(h.points[1] - pose[0, :2]))
 
 
-def test_every_component_a_bone_crosses_gets_a_handle():
+def test_every_component_a_bone_crosses_gets_a_handle(midpoint_handles):
     """A hand drawn apart from its arm: the bone crosses it, no joint or midpoint lands in it -> a handle on it."""
     body = np.array([[2, 2], [30, 2], [30, 30], [2, 30]], float)
     shin = np.array([[48, 8], [62, 8], [62, 24], [48, 24]], float)
@@ -183,3 +186,25 @@ def test_zero_length_bone_as_in_animated_drawings_skeletons():
     tpl = optimize_topology(refined, pose, pose1, sk)
     assert np.allclose(tpl.handle_targets(pose), tpl.rest[tpl.handles])
     assert count_flipped(tpl.rest, tpl.faces) == 0 and np.isfinite(tpl.energy)
+
+
+def _upper_arm_drift(monkeypatch, fractions) -> float:
+    """Largest move, pixels, of the mesh around a still upper arm when the forearm turns 60 degrees at the elbow."""
+    monkeypatch.setattr(handles_module, "BONE_FRACTIONS", fractions)
+    limb = np.array([[10, 25], [150, 25], [150, 35], [10, 35]], float)
+    sk = Skeleton(joints=("shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1]))
+    pose = np.array([[15.0, 30.0, 0.0], [80.0, 30.0, 0.0], [145.0, 30.0, 0.0]])
+    bent = pose.copy()
+    bent[2, :2] = pose[1, :2] + 65.0 * np.array([np.cos(np.pi / 3), np.sin(np.pi / 3)])
+    tpl = optimize_topology(_refined_from([limb], (60, 160)), pose, bent, sk, mode="single-layer")
+    x = Deformer(tpl.rest, tpl.faces, tpl.handles).solve(tpl.handle_targets(bent)).x
+    upper = (tpl.rest[:, 0] > 15) & (tpl.rest[:, 0] < 70)  # the upper arm short of the elbow's bend
+    return float(np.linalg.norm(x[upper] - tpl.rest[upper], axis=1).max())
+
+
+def test_handles_along_bones_keep_a_still_limb_straight(monkeypatch):
+    """With a handle at the midpoint only, the elbow's turn bends the whole upper arm (a lamp's arm bowed by
+    4 px at 256 px); the handles at BONE_FRACTIONS hold it."""
+    midpoint_only = _upper_arm_drift(monkeypatch, (0.5,))
+    along = _upper_arm_drift(monkeypatch, BONE_FRACTIONS)
+    assert along < 1.5 and along < 0.6 * midpoint_only

@@ -83,7 +83,7 @@ def region_boundary(base):
 
 
 @pytest.mark.parametrize("start", [0, 1])
-def test_incision_two_junctions(start):
+def test_incision_two_junctions(start, midpoint_handles):
     base, *_ = square_scene([0, 4])
     n0, m0 = len(base.V), len(base.F)
     rv = np.unique(base.F[base.face_region == 0])
