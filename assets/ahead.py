@@ -9,6 +9,11 @@ the checks. The two keyframe lanes are independent up to rife_matrix, and
 numpy, SciPy, OpenCV and torch release the GIL, so both cores work; Dagster's
 event writes and the store's file writes overlap the computing too.
 
+A worker with no stage ready (one lane finished before the other) loads
+the RIFE network meanwhile, if a stage of the run needs it: torch is not
+imported with the Definitions (it costs about 1.5 s), so a cold run starts
+computing sooner and rife_matrix does not wait for the import.
+
 Outputs computed in the run stay in memory for the stages below them (no
 read back from disk) until the run ends. Freshness is decided exactly as in
 a step: from the parents' data versions, taken from this run's outcomes or
@@ -28,7 +33,7 @@ from ops.types import Shot
 from resources.store import Store
 
 from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
-from .stage import AHEAD, Outcome, StageEnv, run_stage
+from .stage import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
 
 WORKERS = 2  # the machine's cores: a third thread would only contend
 
@@ -77,6 +82,9 @@ class WorkAhead:
         self.memory: dict[str, Any] = {}  # outputs computed in this run
         self.contexts: dict[str, _Context] = {}
         self.urgent: str | None = None  # the stage a step waits for: picked first
+        # work for a worker with no stage ready: load the resources that stages of this run load when they start
+        self.warm_up = [key for key in ("rife",) if key in resources
+                        and any(key in getattr(STAGE_SPECS.get(n), "resources", ()) for n in self.order)]
         self.closed = False
         self.cond = threading.Condition()
         self.threads = [threading.Thread(target=self._work, name=f"inbetween-ahead-{i}", daemon=True)
@@ -120,12 +128,25 @@ class WorkAhead:
     def _work(self) -> None:
         while True:
             with self.cond:
-                while not self.closed and (name := self._next()) is None:
+                while not self.closed and (name := self._next()) is None and not self.warm_up:
                     self.cond.wait()
                 if self.closed:
                     return
-                self.state[name] = "running"
-            self._compute(name)
+                if name is None:
+                    key = self.warm_up.pop(0)
+                else:
+                    self.state[name] = "running"
+            if name is None:
+                self._load(key)
+            else:
+                self._compute(name)
+
+    def _load(self, key: str) -> None:
+        """Load resource `key` ahead of the stages that use it (it caches what it loaded per process)."""
+        try:
+            self.resources[key].load()
+        except Exception:  # noqa: BLE001  (the stage that needs it loads it again, and reports the error)
+            pass
 
     def _compute(self, name: str) -> None:
         context = self.contexts[name] = _Context(self.resources)
