@@ -9,10 +9,10 @@ the checks. The two keyframe lanes are independent up to rife_matrix, and
 numpy, SciPy, OpenCV and torch release the GIL, so both cores work; Dagster's
 event writes and the store's file writes overlap the computing too.
 
-A worker with no stage ready (one lane finished before the other) loads
-the RIFE network meanwhile, if a stage of the run needs it: torch is not
-imported with the Definitions (it costs about 1.5 s), so a cold run starts
-computing sooner and rife_matrix does not wait for the import.
+A worker with no stage ready (one lane finished before the other, or
+while rife_matrix runs) prepares what stages of the run import or load when
+they start, and the Definitions leave out so that a cold run starts computing
+sooner: the RIFE network with torch (about 1.5 s), pandas (0.3 s).
 
 Outputs computed in the run stay in memory for the stages below them (no
 read back from disk) until the run ends. Freshness is decided exactly as in
@@ -21,9 +21,10 @@ from the store, and the sources' versions as the plan observed them.
 """
 from __future__ import annotations
 
+import importlib
 import logging
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import SimpleNamespace
 from typing import Any
@@ -36,6 +37,7 @@ from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
 from .stage import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
 
 WORKERS = 2  # the machine's cores: a third thread would only contend
+TABLE_STAGES = ("quality_metrics", "evaluation/metrics")  # they build pandas tables
 
 
 class _Log:
@@ -82,9 +84,7 @@ class WorkAhead:
         self.memory: dict[str, Any] = {}  # outputs computed in this run
         self.contexts: dict[str, _Context] = {}
         self.urgent: str | None = None  # the stage a step waits for: picked first
-        # work for a worker with no stage ready: load the resources that stages of this run load when they start
-        self.warm_up = [key for key in ("rife",) if key in resources
-                        and any(key in getattr(STAGE_SPECS.get(n), "resources", ()) for n in self.order)]
+        self.warm_up = _warm_ups(self.order, resources)  # for a worker with no stage ready, in this order
         self.closed = False
         self.cond = threading.Condition()
         self.threads = [threading.Thread(target=self._work, name=f"inbetween-ahead-{i}", daemon=True)
@@ -133,20 +133,13 @@ class WorkAhead:
                 if self.closed:
                     return
                 if name is None:
-                    key = self.warm_up.pop(0)
+                    job = self.warm_up.pop(0)
                 else:
                     self.state[name] = "running"
             if name is None:
-                self._load(key)
+                _prepare(job)
             else:
                 self._compute(name)
-
-    def _load(self, key: str) -> None:
-        """Load resource `key` ahead of the stages that use it (it caches what it loaded per process)."""
-        try:
-            self.resources[key].load()
-        except Exception:  # noqa: BLE001  (the stage that needs it loads it again, and reports the error)
-            pass
 
     def _compute(self, name: str) -> None:
         context = self.contexts[name] = _Context(self.resources)
@@ -186,6 +179,23 @@ class WorkAhead:
         with self.cond:
             self.closed = True
             self.cond.notify_all()
+
+
+def _warm_ups(stages: list[str], resources: dict[str, Any]) -> list[Callable[[], Any]]:
+    """What the stages of a run will import or load when they start, and the Definitions did not."""
+    jobs: list[Callable[[], Any]] = []
+    if "rife" in resources and any("rife" in getattr(STAGE_SPECS.get(n), "resources", ()) for n in stages):
+        jobs.append(resources["rife"].load)  # cached per process: the stage gets the loaded network
+    if any(n in TABLE_STAGES for n in stages):
+        jobs.append(lambda: importlib.import_module("pandas"))
+    return jobs
+
+
+def _prepare(job: Callable[[], Any]) -> None:
+    try:
+        job()
+    except Exception:  # noqa: BLE001  (the stage that needs it does it again, and reports the error)
+        pass
 
 
 @contextmanager
