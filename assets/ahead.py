@@ -5,7 +5,10 @@ selected stage of the run starts as soon as its parents have finished, on
 one of two worker threads, while the executor's thread records the steps in
 its own order: each step (assets/stage.py) waits for its stage's outcome,
 replays its log lines, yields the output for the IO manager to store and runs
-the checks. The two keyframe lanes are independent up to rife_matrix, and
+the checks. The worker that computed a stage also writes its output beside
+its place in the store (Store.stage) once the stages below it may start, so
+the IO manager only renames it into place; if that write fails, the IO
+manager writes the output itself (and reports the failure, a full disk). The two keyframe lanes are independent up to rife_matrix, and
 numpy, SciPy, OpenCV and torch release the GIL, so both cores work; Dagster's
 event writes and the store's file writes overlap the computing too.
 
@@ -81,6 +84,7 @@ class WorkAhead:
         self.state = {n: "pending" for n in self.order}  # pending | running | done | failed
         self.outcomes: dict[str, Outcome] = {}
         self.errors: dict[str, BaseException] = {}
+        self.settled: set[str] = set()  # done, and its new output (if any) written beside its place
         self.memory: dict[str, Any] = {}  # outputs computed in this run
         self.contexts: dict[str, _Context] = {}
         self.urgent: str | None = None  # the stage a step waits for: picked first
@@ -103,7 +107,7 @@ class WorkAhead:
                 inline = False
                 self.urgent = name
                 self.cond.notify_all()
-                while self.state[name] in ("pending", "running"):
+                while self.state[name] != "failed" and name not in self.settled:
                     self.cond.wait()
         if inline:
             self._compute(name)
@@ -157,8 +161,18 @@ class WorkAhead:
             self.outcomes[name] = outcome
             if not outcome.cached:
                 self.memory[name] = outcome.result.value
-            self.state[name] = "done"
+            self.state[name] = "done"  # the stages below it may start
             self.cond.notify_all()
+        if not outcome.cached:
+            try:
+                self.store.stage(name, self.partition, outcome.result.value, outcome.version, outcome.record)
+            except Exception:  # noqa: BLE001  (the step's IO manager writes it, and reports the failure)
+                pass
+        with self.cond:
+            self.settled.add(name)
+            self.cond.notify_all()
+            if self.closed:  # the run ended without its step: nothing renames it into place
+                self.store.discard(name, self.partition)
 
     def _version(self, name: str) -> str | None:
         """Data version of a stage: this run's outcome if it ran here, else the stored output's."""
@@ -175,10 +189,13 @@ class WorkAhead:
             t.start()
 
     def close(self) -> None:
-        """Stop scheduling; a stage already computing finishes on its daemon thread and is dropped."""
+        """Stop scheduling; a stage already computing finishes on its daemon thread and is dropped, and so is
+        every output written ahead that no step put into place."""
         with self.cond:
             self.closed = True
             self.cond.notify_all()
+        for name in self.order:
+            self.store.discard(name, self.partition)
 
 
 def _warm_ups(stages: list[str], resources: dict[str, Any]) -> list[Callable[[], Any]]:
