@@ -163,7 +163,7 @@ class WorkAhead:
                 self.memory[name] = outcome.result.value
             self.state[name] = "done"  # the stages below it may start
             self.cond.notify_all()
-        if not outcome.cached:
+        if not outcome.cached and not self.closed:  # (after the run ended nothing would put it in place)
             try:
                 self.store.stage(name, self.partition, outcome.result.value, outcome.version, outcome.record)
             except Exception:  # noqa: BLE001  (the step's IO manager writes it, and reports the failure)
