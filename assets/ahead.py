@@ -5,9 +5,17 @@ selected stage of the run starts as soon as its parents have finished, on
 one of two worker threads, while the executor's thread records the steps in
 its own order: each step (assets/stage.py) waits for its stage's outcome,
 replays its log lines, yields the output for the IO manager to store and runs
-the checks. The two keyframe lanes are independent up to rife_matrix, and
+the checks. The worker that computed a stage also writes its output beside
+its place in the store (Store.stage) once the stages below it may start, so
+the IO manager only renames it into place; if that write fails, the IO
+manager writes the output itself (and reports the failure, a full disk). The two keyframe lanes are independent up to rife_matrix, and
 numpy, SciPy, OpenCV and torch release the GIL, so both cores work; Dagster's
 event writes and the store's file writes overlap the computing too.
+
+A worker with no stage ready (one lane finished before the other, or
+while rife_matrix runs) prepares what stages of the run import or load when
+they start, and the Definitions leave out so that a cold run starts computing
+sooner: the RIFE network with torch (about 1.5 s), pandas (0.3 s).
 
 Outputs computed in the run stay in memory for the stages below them (no
 read back from disk) until the run ends. Freshness is decided exactly as in
@@ -16,9 +24,10 @@ from the store, and the sources' versions as the plan observed them.
 """
 from __future__ import annotations
 
+import importlib
 import logging
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from types import SimpleNamespace
 from typing import Any
@@ -28,9 +37,10 @@ from ops.types import Shot
 from resources.store import Store
 
 from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
-from .stage import AHEAD, Outcome, StageEnv, run_stage
+from .stage import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
 
 WORKERS = 2  # the machine's cores: a third thread would only contend
+TABLE_STAGES = ("quality_metrics", "evaluation/metrics")  # they build pandas tables
 
 
 class _Log:
@@ -74,9 +84,11 @@ class WorkAhead:
         self.state = {n: "pending" for n in self.order}  # pending | running | done | failed
         self.outcomes: dict[str, Outcome] = {}
         self.errors: dict[str, BaseException] = {}
+        self.settled: set[str] = set()  # done, and its new output (if any) written beside its place
         self.memory: dict[str, Any] = {}  # outputs computed in this run
         self.contexts: dict[str, _Context] = {}
         self.urgent: str | None = None  # the stage a step waits for: picked first
+        self.warm_up = _warm_ups(self.order, resources)  # for a worker with no stage ready, in this order
         self.closed = False
         self.cond = threading.Condition()
         self.threads = [threading.Thread(target=self._work, name=f"inbetween-ahead-{i}", daemon=True)
@@ -95,7 +107,7 @@ class WorkAhead:
                 inline = False
                 self.urgent = name
                 self.cond.notify_all()
-                while self.state[name] in ("pending", "running"):
+                while self.state[name] != "failed" and name not in self.settled:
                     self.cond.wait()
         if inline:
             self._compute(name)
@@ -120,12 +132,18 @@ class WorkAhead:
     def _work(self) -> None:
         while True:
             with self.cond:
-                while not self.closed and (name := self._next()) is None:
+                while not self.closed and (name := self._next()) is None and not self.warm_up:
                     self.cond.wait()
                 if self.closed:
                     return
-                self.state[name] = "running"
-            self._compute(name)
+                if name is None:
+                    job = self.warm_up.pop(0)
+                else:
+                    self.state[name] = "running"
+            if name is None:
+                _prepare(job)
+            else:
+                self._compute(name)
 
     def _compute(self, name: str) -> None:
         context = self.contexts[name] = _Context(self.resources)
@@ -143,8 +161,18 @@ class WorkAhead:
             self.outcomes[name] = outcome
             if not outcome.cached:
                 self.memory[name] = outcome.result.value
-            self.state[name] = "done"
+            self.state[name] = "done"  # the stages below it may start
             self.cond.notify_all()
+        if not outcome.cached and not self.closed:  # (after the run ended nothing would put it in place)
+            try:
+                self.store.stage(name, self.partition, outcome.result.value, outcome.version, outcome.record)
+            except Exception:  # noqa: BLE001  (the step's IO manager writes it, and reports the failure)
+                pass
+        with self.cond:
+            self.settled.add(name)
+            self.cond.notify_all()
+            if self.closed:  # the run ended without its step: nothing renames it into place
+                self.store.discard(name, self.partition)
 
     def _version(self, name: str) -> str | None:
         """Data version of a stage: this run's outcome if it ran here, else the stored output's."""
@@ -161,10 +189,30 @@ class WorkAhead:
             t.start()
 
     def close(self) -> None:
-        """Stop scheduling; a stage already computing finishes on its daemon thread and is dropped."""
+        """Stop scheduling; a stage already computing finishes on its daemon thread and is dropped, and so is
+        every output written ahead that no step put into place."""
         with self.cond:
             self.closed = True
             self.cond.notify_all()
+        for name in self.order:
+            self.store.discard(name, self.partition)
+
+
+def _warm_ups(stages: list[str], resources: dict[str, Any]) -> list[Callable[[], Any]]:
+    """What the stages of a run will import or load when they start, and the Definitions did not."""
+    jobs: list[Callable[[], Any]] = []
+    if "rife" in resources and any("rife" in getattr(STAGE_SPECS.get(n), "resources", ()) for n in stages):
+        jobs.append(resources["rife"].load)  # cached per process: the stage gets the loaded network
+    if any(n in TABLE_STAGES for n in stages):
+        jobs.append(lambda: importlib.import_module("pandas"))
+    return jobs
+
+
+def _prepare(job: Callable[[], Any]) -> None:
+    try:
+        job()
+    except Exception:  # noqa: BLE001  (the stage that needs it does it again, and reports the error)
+        pass
 
 
 @contextmanager

@@ -1,8 +1,9 @@
 """Both lanes meet: RIFE image matrix -> quality metrics -> optimal path -> output frames (§5.2)."""
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
@@ -14,6 +15,9 @@ from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
 from .stage import StageEnv, StageResult, stage_asset
+
+if TYPE_CHECKING:  # pandas is imported by the stages that build tables, not with the Definitions
+    import pandas as pd
 
 
 def _quality_inputs(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.ndarray):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import os
+from importlib.util import find_spec
 from pathlib import Path
 
 import dagster as dg
@@ -78,10 +79,9 @@ FARM_JOB = "inbetween_shot_farm"
 
 def farm_jobs() -> list:
     """The shot job on the Celery executor (assets/farm/), where the `.[farm]` extra is installed."""
-    try:
-        from .farm.executor import farm_executor
-    except ModuleNotFoundError:  # no dagster-celery: every other path works without it
+    if find_spec("dagster_celery") is None:  # no dagster-celery: every other path works without it
         return []
+    from .farm.executor import farm_executor  # imports dagster-celery only when a farm run starts
     return [dg.define_asset_job(FARM_JOB, selection=dg.AssetSelection.groups("key0", "key1", "blending"),
                                 partitions_def=PARTITIONS, executor_def=farm_executor)]
 

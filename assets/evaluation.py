@@ -4,7 +4,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
@@ -64,6 +63,8 @@ def _metrics(env: StageEnv) -> StageResult:
     """PSNR, SSIM and Chamfer of every method against the ground truth, per frame, all over the shot's paper."""
     gt = _ground_truth(env)
     if gt is None:
+        import pandas as pd  # not with the Definitions (0.3 s): only where a table is built
+
         empty = pd.DataFrame(columns=["method", "frame", "t", "interior", "psnr", "ssim", "chamfer"])
         return StageResult(empty, {"ground_truth": False})
     shot = env.shot

@@ -304,7 +304,11 @@ def retry_database_locked(fn):
 
 
 class Session:
-    """The Dagster instance and the Definitions, built once per process per (settings, home)."""
+    """The Dagster instance and the Definitions, built once per process per (settings, home).
+
+    The instance is opened on first use (`instance`): a run starts computing its stages (assets/ahead.py)
+    while it opens, which on a new home creates its SQLite tables.
+    """
 
     _cache: dict[tuple, Session] = {}
 
@@ -323,7 +327,13 @@ class Session:
                      else definitions.build_definitions(settings))
         self.resources = dict(self.defs.resources)
         self.job = self.defs.resolve_implicit_global_asset_job_def()
-        self.instance = open_instance()
+        self._instance = None
+
+    @property
+    def instance(self):
+        if self._instance is None:  # not kept when opening fails: the next call tries again
+            self._instance = open_instance()
+        return self._instance
 
     @classmethod
     def get(cls, settings: Settings) -> Session:
@@ -460,9 +470,9 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
     from .ahead import working_ahead
 
     session = Session.get(settings)
-    session.ensure_partition(p.partition)
-    session.observe(p.partition, p.sources)
     if executor == "celery":
+        session.ensure_partition(p.partition)
+        session.observe(p.partition, p.sources)
         result = session.materialize_farm(p.shot.root, p.partition, names, _log_path(p.partition), verbose)
         return stage_timings(result.all_events)
     executed: dict[str, dict] = {}
@@ -471,10 +481,13 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
         if ev["event"] == "done" and ev["partition"] == p.partition:
             executed[ev["stage"]] = {"seconds": ev["seconds"], "cached": ev["cached"]}
 
-    # the stages compute on two threads as soon as their parents have, ahead of the steps that record them;
+    # the stages compute on two threads as soon as their parents have, ahead of the steps that record them
+    # (from before the instance opens: their outputs are stored and recorded by their steps alone);
     # the sources' versions are the ones the plan observed (not hashed again per step)
     with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
                                                   session.resources):
+        session.ensure_partition(p.partition)
+        session.observe(p.partition, p.sources)
         session.materialize(p.shot.root, p.partition, names, _log_path(p.partition), verbose)
     return executed
 

@@ -119,6 +119,7 @@ class StageSpec:
     code: dict[str, str]  # file -> source hash (assets/codeversion.py)
     functions: tuple[Callable, ...]  # the compute function and the StageEnv methods it reads through
     resource_modules: tuple[str, ...]  # modules of the resources it declares
+    resources: tuple[str, ...] = ()  # the keys of those resources
 
     @property
     def compute(self) -> Callable[[StageEnv], StageResult]:
@@ -133,7 +134,7 @@ def stage_spec(name: str, compute: Callable, resources: tuple[str, ...]) -> Stag
     """Code record of a stage: its compute function, the StageEnv it reads through, its resources' modules."""
     functions = (compute, *[v for v in vars(StageEnv).values() if callable(v)], StageEnv.shot.func)
     modules = tuple(RESOURCE_TYPES[r].__module__ for r in resources)
-    return StageSpec(name, code_record(functions, modules), functions, modules)
+    return StageSpec(name, code_record(functions, modules), functions, modules, tuple(resources))
 
 
 @dataclass

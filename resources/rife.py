@@ -1,6 +1,7 @@
 """The RIFE frame-interpolation model as a Dagster resource (§5.2)."""
 from __future__ import annotations
 
+import threading
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
@@ -31,4 +32,8 @@ class RifeResource(dg.ConfigurableResource):
 
     def load(self) -> Rife:
         """The loaded network, cached per process; raises ops.errors.ShotError on bad weights or device."""
-        return _cached_rife(self.weights_path, self.device)
+        with _LOADING:  # a stage and the work-ahead loading it at once (assets/ahead.py) load it once
+            return _cached_rife(self.weights_path, self.device)
+
+
+_LOADING = threading.Lock()

@@ -7,6 +7,9 @@ Layout: <root>/<partition>/<asset/key/path>/ holding
   table.parquet + table.csv  for pandas DataFrames
 A stage is written into a temporary sibling directory and renamed into place,
 so a killed run never leaves a half-written output that a rerun would trust.
+The writing may happen ahead of the rename (`Store.stage`, from the thread
+that computed the output): the IO manager's `write` of the same output then
+only renames it into place.
 
 The provenance a stage records (its parents' data versions, the settings it
 read, its code version) lives in the same meta.json, so an output and the
@@ -23,6 +26,7 @@ import json
 import os
 import shutil
 import sys
+import threading
 import uuid
 from pathlib import Path
 from typing import Any
@@ -134,6 +138,16 @@ def _load(d: Path, prefix: str, arrays, meta: dict) -> Any:
 
 def write_value(path: Path, value: Any, digest: str | None = None, provenance: dict | None = None) -> str:
     """Write a stage output atomically into directory `path`; returns its content hash (given or computed)."""
+    tmp, digest = _write_beside(path, value, digest, provenance)
+    try:
+        _put_in_place(tmp, path)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return digest
+
+
+def _write_beside(path: Path, value: Any, digest: str | None, provenance: dict | None) -> tuple[Path, str]:
+    """Write a stage output completely into a new temporary sibling of `path`; (that directory, content hash)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.parent / f".tmp-{path.name}-{uuid.uuid4().hex[:8]}"
     tmp.mkdir()
@@ -154,14 +168,19 @@ def write_value(path: Path, value: Any, digest: str | None = None, provenance: d
         if provenance is not None:
             meta["__provenance__"] = provenance
         _write_json(tmp / "meta.json", meta)
-        old = path.parent / f".old-{path.name}-{uuid.uuid4().hex[:8]}"
-        if path.exists():
-            os.replace(path, old)
-        os.replace(tmp, path)
-        shutil.rmtree(old, ignore_errors=True)
-    finally:
+    except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
-    return digest
+        raise
+    return tmp, digest
+
+
+def _put_in_place(tmp: Path, path: Path) -> None:
+    """Rename a complete output directory written by _write_beside to `path` (replacing what was there)."""
+    old = path.parent / f".old-{path.name}-{uuid.uuid4().hex[:8]}"
+    if path.exists():
+        os.replace(path, old)
+    os.replace(tmp, path)
+    shutil.rmtree(old, ignore_errors=True)
 
 
 def _write_json(path: Path, data: dict) -> None:
@@ -221,6 +240,15 @@ def update_provenance(path: Path, provenance: dict) -> None:
     os.replace(tmp, path / "meta.json")
 
 
+# outputs written ahead of their `write` in this process: output directory -> (staged directory, hash, provenance)
+_STAGED: dict[Path, tuple[Path, str, str]] = {}
+_STAGED_LOCK = threading.Lock()
+
+
+def _record_key(provenance: dict | None) -> str:
+    return json.dumps(provenance, sort_keys=True, default=str)
+
+
 class Store:
     """Stage outputs of every shot under `root`: <root>/<partition>/<stage name>/."""
 
@@ -236,7 +264,42 @@ class Store:
 
     def write(self, name: str, partition: str, value: Any, digest: str | None = None,
               provenance: dict | None = None) -> str:
-        return write_value(self.path(name, partition), value, digest, provenance)
+        """Store an output; when `stage` already wrote this very output (same hash and provenance), only
+        rename it into place."""
+        path = self.path(name, partition)
+        staged = self._take_staged(path)
+        if staged is not None:
+            tmp, staged_digest, record = staged
+            if digest is not None and staged_digest == digest and record == _record_key(provenance):
+                try:
+                    _put_in_place(tmp, path)
+                    return digest
+                finally:
+                    shutil.rmtree(tmp, ignore_errors=True)
+            shutil.rmtree(tmp, ignore_errors=True)
+        return write_value(path, value, digest, provenance)
+
+    def stage(self, name: str, partition: str, value: Any, digest: str, provenance: dict | None = None) -> None:
+        """Write an output ahead of its `write` (on the thread that computed it): complete beside its place,
+        not read by anyone, until `write` renames it there; `discard` removes it."""
+        path = self.path(name, partition)
+        tmp, digest = _write_beside(path, value, digest, provenance)
+        with _STAGED_LOCK:
+            previous = _STAGED.pop(path, None)
+            _STAGED[path] = (tmp, digest, _record_key(provenance))
+        if previous is not None:
+            shutil.rmtree(previous[0], ignore_errors=True)
+
+    def discard(self, name: str, partition: str) -> None:
+        """Remove an output staged and never written (its run failed)."""
+        staged = self._take_staged(self.path(name, partition))
+        if staged is not None:
+            shutil.rmtree(staged[0], ignore_errors=True)
+
+    @staticmethod
+    def _take_staged(path: Path) -> tuple[Path, str, str] | None:
+        with _STAGED_LOCK:
+            return _STAGED.pop(path, None)
 
     def hash(self, name: str, partition: str) -> str | None:
         return stored_hash(self.path(name, partition))

@@ -9,12 +9,16 @@ Rows are processed in chunks so a long shot only needs one chunk in memory.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
-import torch
 
-from ops.blending.rife import Rife, to_numpy
 from ops.types import ImageMatrix
+
+if TYPE_CHECKING:  # torch is imported when a matrix is built, not with this module (the alpha grid needs none)
+    import torch
+
+    from ops.blending.rife import Rife
 
 
 def alpha_grid(depth: int) -> np.ndarray:
@@ -69,6 +73,8 @@ def _fill_chunk(cells: torch.Tensor, todo: np.ndarray, depth: int, rife: Rife, b
                 flows: torch.Tensor) -> None:
     """Fill cells (c, A, 4, H, W) on the device in place where todo (c, A) is set, level by level from their
     parents, which must be known; the alpha-1/2 calls write their flow into flows (c, 4, H, W)."""
+    import torch
+
     for level, triples in enumerate(bisection_levels(depth)):
         # every (row, triple) pair of this level is independent: batch them across rows
         pairs = np.array([(r, *tri) for r in range(len(cells)) for tri in triples if todo[r, tri[1]]], np.int64)
@@ -94,6 +100,10 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     likewise) only one chunk is held in memory. On a CPU one pair per call is
     fastest (larger batches fall out of cache); on a GPU use 8 or more.
     """
+    import torch
+
+    from ops.blending.rife import to_numpy
+
     _check_inputs(frames0, frames1, times)
     if batch < 1:
         raise ValueError(f"batch must be >= 1, got {batch}")

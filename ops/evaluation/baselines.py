@@ -6,14 +6,18 @@ keyframes (same network, bisection to each t) and a cross-dissolve.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import pandas as pd
 
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.quality import coverage_weight, inpainted_share, interpolation_quality, texture_quality
 from ops.evaluation.metrics import chamfer, psnr, ssim
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 METHODS = ("ours", "ours_diagonal", "single_layer", "rife_direct", "cross_dissolve")
 
@@ -56,6 +60,8 @@ def blend_sequences(seq0: DeformedSequence, seq1: DeformedSequence, rife, depth:
 
 def compare(ground_truth: np.ndarray, methods: dict[str, np.ndarray], times: np.ndarray) -> pd.DataFrame:
     """Per method and frame: PSNR, SSIM, Chamfer against ground truth (T, H, W, C); long table."""
+    import pandas as pd  # imported where a table is built: importing this module stays cheap
+
     rows = []
     T = len(times)
     for name, frames in methods.items():

@@ -14,7 +14,6 @@ from ops.segmentation.bones import thick_regions
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
-from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion
 from ops.types import Masks, Skeleton
 
 NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
@@ -94,6 +93,8 @@ def build_masks(
     if predicted and occlusion == "drawing":
         # no pockets where bones that share a joint overlap: the mesh bends there, and a pocket at an elbow
         # or a hip opened as a dark blob when the limb moved (arm_cross: 25.2 -> 25.5 dB, Chamfer 30.2 -> 28.1)
+        from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion  # torch: only here
+
         regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False)
         warnings += w
     elif predicted:

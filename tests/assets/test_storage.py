@@ -1,11 +1,13 @@
 """Stage storage: lossless round trips, content hashes, atomic writes."""
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 
 from ops.types import BlendPath, BlendPaths, OutputFrames, RefinedMasks
-from resources.store import content_hash, read_value, stored_hash, write_value
+from resources.store import Store, content_hash, read_value, stored_hash, write_value
 
 
 def _refined() -> RefinedMasks:
@@ -52,3 +54,29 @@ def test_missing_or_partial_output_is_not_trusted(tmp_path):
     path.mkdir()
     (path / "arrays.npz").write_bytes(b"half")  # a killed writer before meta.json: never trusted
     assert stored_hash(path) is None
+
+
+def test_an_output_written_ahead_is_renamed_into_place_by_its_write(tmp_path):
+    """Store.stage (the work-ahead's thread) writes beside the output's place; write() of that very output only
+    renames it there; a different output, or a different record, is written afresh; discard() leaves nothing."""
+    store = Store(tmp_path)
+    value, record = _refined(), {"parents": {"a": "1"}}
+    digest = content_hash(value)
+    store.stage("key0/refined_masks", "shot", value, digest, record)
+    parent = tmp_path / "shot" / "key0"
+    assert [p.name.startswith(".tmp-") for p in parent.iterdir()] == [True]  # not in place: nobody reads it
+    assert store.hash("key0/refined_masks", "shot") is None
+    assert store.write("key0/refined_masks", "shot", value, digest, json.loads(json.dumps(record))) == digest
+    assert sorted(p.name for p in parent.iterdir()) == ["refined_masks"]
+    assert store.provenance("key0/refined_masks", "shot") == (digest, record)
+    assert content_hash(store.read("key0/refined_masks", "shot")) == digest
+
+    other = _refined()
+    store.stage("key0/refined_masks", "shot", other, content_hash(other), {"parents": {"a": "2"}})
+    store.write("key0/refined_masks", "shot", other, content_hash(other), {"parents": {"a": "3"}})
+    assert store.provenance("key0/refined_masks", "shot") == (content_hash(other), {"parents": {"a": "3"}})
+    assert sorted(p.name for p in parent.iterdir()) == ["refined_masks"]
+
+    store.stage("key0/masks", "shot", value, digest, record)
+    store.discard("key0/masks", "shot")
+    assert sorted(p.name for p in parent.iterdir()) == ["refined_masks"]

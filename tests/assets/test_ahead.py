@@ -1,0 +1,75 @@
+"""The work-ahead (assets/ahead.py) without Dagster's steps: outputs written ahead, idle workers warming up."""
+from __future__ import annotations
+
+import threading
+from types import SimpleNamespace
+
+import assets.ahead as ahead
+from assets.stage import Outcome, StageResult
+from ops.settings import Settings
+
+
+class _Store:
+    """Records what the work-ahead writes ahead and discards."""
+
+    def __init__(self):
+        self.staged, self.discarded = [], []
+
+    def stage(self, name, partition, value, digest, provenance=None):
+        self.staged.append(name)
+
+    def discard(self, name, partition):
+        self.discarded.append(name)
+
+    def hash(self, name, partition):
+        return None
+
+
+class _Context:
+    def __init__(self):
+        self.log = SimpleNamespace(log=lambda level, message: None)
+
+
+def _outcome(name: str) -> Outcome:
+    return Outcome(f"v-{name}", False, StageResult(name), 0.0, {"parents": {}}, None)
+
+
+def test_each_new_output_is_written_ahead_before_its_step_takes_it(monkeypatch):
+    monkeypatch.setattr(ahead, "run_stage", lambda name, env, parents, settings: _outcome(name))
+    store = _Store()
+    work = ahead.WorkAhead("p", ["key0/masks", "key0/refined_masks"], None, {}, Settings(), store, {})
+    work.start()
+    try:
+        for name in ("key0/masks", "key0/refined_masks"):
+            outcome, _ = work.outcome(name, _Context())
+            assert outcome.version == f"v-{name}" and name in store.staged
+    finally:
+        work.close()
+    assert set(store.discarded) == {"key0/masks", "key0/refined_masks"}  # a no-op for outputs put in place
+
+
+def test_an_idle_worker_loads_rife_before_rife_matrix_needs_it(monkeypatch):
+    release, loaded, order = threading.Event(), threading.Event(), []
+
+    def run_stage(name, env, parents, settings):
+        if name == "key0/deformed_frames":
+            assert release.wait(10)  # the other worker has nothing to do meanwhile
+        order.append(name)
+        return _outcome(name)
+
+    def load():
+        order.append("load rife")
+        loaded.set()
+
+    monkeypatch.setattr(ahead, "run_stage", run_stage)
+    monkeypatch.setitem(ahead.STAGE_SPECS, "rife_matrix", SimpleNamespace(resources=("rife",)))
+    names = ["key0/deformed_frames", "key1/deformed_frames", "rife_matrix"]
+    work = ahead.WorkAhead("p", names, None, {}, Settings(), _Store(), {"rife": SimpleNamespace(load=load)})
+    work.start()
+    try:
+        assert loaded.wait(10)
+        release.set()
+        work.outcome("rife_matrix", _Context())
+    finally:
+        work.close()
+    assert order.index("load rife") < order.index("rife_matrix") and order.count("load rife") == 1
