@@ -10,7 +10,13 @@ from ops.blending.contact_sheet import matrix_contact_sheet
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_cells
-from ops.blending.quality import coverage_weight, inpainted_share, interpolation_quality, quality_table, texture_quality
+from ops.blending.quality import (
+    coverage_weight,
+    interpolation_quality,
+    quality_table,
+    texture_quality,
+    unreliable_share,
+)
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
@@ -21,9 +27,8 @@ if TYPE_CHECKING:  # pandas is imported by the stages that build tables, not wit
 
 
 def _quality_inputs(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.ndarray):
-    """(inpainted shares (T,) of both sequences, q (T, A), coverage weight (T, H, W) of Q)."""
-    share0 = inpainted_share(seq0.inpainted, seq0.images[..., 3])
-    share1 = inpainted_share(seq1.inpainted, seq1.images[..., 3])
+    """(unreliable-texture shares (T,) of both sequences, q (T, A), coverage weight (T, H, W) of Q)."""
+    share0, share1 = unreliable_share(seq0), unreliable_share(seq1)
     weight = coverage_weight(seq0.images[..., 3], seq1.images[..., 3])
     return share0, share1, texture_quality(share0, share1, alphas), weight
 
@@ -53,7 +58,8 @@ def _rife_matrix(env: StageEnv) -> StageResult:
 
 
 def _quality(env: StageEnv) -> StageResult:
-    """Texture quality q(t, alpha) (visible inpainted share) and interpolation quality Q(t) (flow divergence)."""
+    """Texture quality q(t, alpha) (visible unreliable share: inpainted or distorted) and interpolation quality Q(t)
+    (flow divergence)."""
     matrix: ImageMatrix = env.read("rife_matrix")
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
@@ -61,8 +67,8 @@ def _quality(env: StageEnv) -> StageResult:
     Q = interpolation_quality(matrix.flows, weight)
     table = quality_table(matrix.times, matrix.alphas, q, Q)
     meta = {"Q_max": float(Q.max()), "Q_mean": float(Q.mean()), "q_max": float(q.max()),
-            "inpainted_share_key0": [round(float(s), 4) for s in share0],
-            "inpainted_share_key1": [round(float(s), 4) for s in share1]}
+            "unreliable_share_key0": [round(float(s), 4) for s in share0],
+            "unreliable_share_key1": [round(float(s), 4) for s in share1]}
     return StageResult(table, meta, None)
 
 

@@ -119,7 +119,8 @@ def _deformed(k: int):
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
                 "iterations_total": int(seq.iterations.sum()),
-                "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max())}
+                "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max()),
+                "distorted_share_max": float((seq.distorted.sum((1, 2)) / coverage).max())}
         return StageResult(seq, meta, preview.frame_strip(seq.images))
 
     return compute

@@ -166,6 +166,8 @@ class DeformedSequence:
     inpainted: np.ndarray  # (T, H, W) bool: visible pixels whose texture was inpainted
     energies: np.ndarray  # (T,) float64 final energy per frame
     iterations: np.ndarray  # (T,) int64 solver iterations per frame
+    # (T, H, W) bool: visible pixels drawn by faces scaled beyond ops.appearance.render.DISTORTION_LIMIT
+    distorted: np.ndarray | None = None
 
 
 @dataclass

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ops.appearance.inpaint import Inpainter
-from ops.appearance.render import render
+from ops.appearance.render import Renderer
 from ops.appearance.texture import texture_template
 from ops.appearance.weights import depth_weights
 from ops.geometry.deform import Deformer, deform_sequence
@@ -35,7 +35,9 @@ def deform_lane(textured: TexturedTemplate, times: np.ndarray, poses: np.ndarray
     T = len(times)
     images = np.zeros((T, *shape, 4), np.float32)
     inpainted = np.zeros((T, *shape), bool)
+    distorted = np.zeros((T, *shape), bool)
+    renderer = Renderer(textured)
     for i in range(T):
-        images[i], inpainted[i] = render(textured, X[i], poses[i], shape, supersample)
+        images[i], inpainted[i], distorted[i] = renderer.frame(X[i], poses[i], shape, supersample)
     return DeformedSequence(np.asarray(times, float).copy(), np.asarray(X), images, inpainted,
-                            np.asarray(energies, float), np.asarray(iters, np.int64))
+                            np.asarray(energies, float), np.asarray(iters, np.int64), distorted)

@@ -20,9 +20,13 @@ import cv2
 import numpy as np
 
 from ops.appearance.layers import layer_depth, layer_groups
+from ops.geometry.mesh import face_stretch
 from ops.types import TexturedTemplate
 
 SHIFT = 8  # cv2 fixed-point fraction bits: 1/256 px vertex accuracy
+# a face scaled more than this (or squashed below its inverse) no longer shows the drawing as drawn: where a mesh
+# glued across an unseen occlusion tears (a hand on the hip as the arm rises), its texture smears
+DISTORTION_LIMIT = 2.0
 _DEPTH_DECIMALS = 9  # depths equal to this many decimals are ties (bbw rows sum to 1 only up to rounding)
 
 
@@ -145,7 +149,7 @@ class Renderer:
         self.groups = layer_groups(textured.template)
 
     def _samples(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], s: int):
-        """Premultiplied RGBA of every supersample (H*s, W*s, 4), and the back map and hidden-face mask behind it."""
+        """Premultiplied RGBA of every supersample (H*s, W*s, 4), the back map, hidden-face mask and face ids behind it."""
         tpl = self.textured.template
         ids = rasterize_ids(X, tpl.faces, depth_order(self.textured, pose, self.groups), shape, s)
         map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
@@ -155,22 +159,33 @@ class Renderer:
         off = np.float32(-1e4)
         pre = cv2.remap(self.front, np.where(hidden, off, map_x), map_y, **_REMAP)
         pre += cv2.remap(self.back, np.where(hidden, map_x, off), map_y, **_REMAP)
-        return pre, map_x, map_y, hidden
+        return pre, map_x, map_y, hidden, ids
 
-    def rgba(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
-             supersample: int = 2) -> tuple[np.ndarray, np.ndarray]:
-        """X (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W) bool)."""
+    def frame(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
+              supersample: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """X (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W)
+        bool, distorted (H, W) bool: visible pixels drawn by faces scaled beyond DISTORTION_LIMIT)."""
         shape = tuple(shape) if shape is not None else self.textured.texture.shape[:2]
         s = int(supersample)
-        pre, map_x, map_y, hidden = self._samples(X, pose, shape, s)
+        pre, map_x, map_y, hidden, ids = self._samples(X, pose, shape, s)
         rgba = unpremultiply(downsample(pre, s))
         bh, bw = self.textured.back_inpainted.shape
         cx = np.clip(np.rint(map_x).astype(np.int64), 0, bw - 1)
         cy = np.clip(np.rint(map_y).astype(np.int64), 0, bh - 1)
         # source-1 faces may hold inpainted pixels too (samples invisible in the other keyframe)
         filled = hidden & self.textured.back_inpainted[cy, cx]
-        inpainted = (downsample(filled.astype(np.float32), s) >= 0.5) & (rgba[..., 3] > 0.5)
-        return rgba.astype(np.float32), inpainted
+        shown = rgba[..., 3] > 0.5
+        inpainted = (downsample(filled.astype(np.float32), s) >= 0.5) & shown
+        tpl = self.textured.template
+        torn = np.append(face_stretch(tpl.rest, X, tpl.faces) > DISTORTION_LIMIT, False)  # id -1 -> False
+        distorted = (downsample(torn[ids].astype(np.float32), s) >= 0.5) & shown
+        return rgba.astype(np.float32), inpainted, distorted
+
+    def rgba(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
+             supersample: int = 2) -> tuple[np.ndarray, np.ndarray]:
+        """X (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W) bool)."""
+        rgba, inpainted, _ = self.frame(X, pose, shape, supersample)
+        return rgba, inpainted
 
     def over_white(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], supersample: int = 1) -> np.ndarray:
         """The same frame composited over white, (H, W, 3) float32: no round trip through straight alpha."""

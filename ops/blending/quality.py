@@ -1,7 +1,8 @@
 """Texture and interpolation quality of the image matrix cells (§5.2).
 
 Texture quality q(t, alpha) measures how much of a blended frame's character
-comes from inpainted texture; interpolation quality Q(t) measures how hard
+comes from inpainted texture (and, our extension, from texture distorted
+beyond a limit by a tearing mesh); interpolation quality Q(t) measures how hard
 the RIFE flow at time t is, as the integral of its squared divergence
 (flows that stretch or squash regions, rather than translate or shear them,
 are where frame interpolation produces ghosting).
@@ -11,6 +12,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from ops.types import DeformedSequence
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -26,6 +29,15 @@ def inpainted_share(inpainted: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     dirty = np.where(inpainted, alpha, 0.0).sum(axis=(1, 2))
     # An empty frame shows no texture at all, so none of it is inpainted.
     return np.divide(dirty, covered, out=np.zeros_like(covered), where=covered > 0)
+
+
+def unreliable_share(seq: DeformedSequence) -> np.ndarray:
+    """(T,) share of each frame's visible character whose texture is not the drawing as drawn: inpainted (the
+    paper's q), or drawn by faces distorted beyond the renderer's limit, where a mesh glued across an occlusion
+    that the masks missed tears and smears (our extension: without it, the path takes a torn lane whose
+    pockets happen to need no inpainting)."""
+    shown = seq.inpainted if seq.distorted is None else seq.inpainted | seq.distorted
+    return inpainted_share(shown, seq.images[..., 3])
 
 
 def texture_quality(share0: np.ndarray, share1: np.ndarray, alphas: np.ndarray) -> np.ndarray:

@@ -12,7 +12,7 @@ import numpy as np
 
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
-from ops.blending.quality import coverage_weight, inpainted_share, interpolation_quality, texture_quality
+from ops.blending.quality import coverage_weight, interpolation_quality, texture_quality, unreliable_share
 from ops.evaluation.metrics import chamfer, psnr, ssim
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix
 
@@ -50,8 +50,7 @@ def blend_sequences(seq0: DeformedSequence, seq1: DeformedSequence, rife, depth:
                     epsilon: float = 0.02) -> tuple[ImageMatrix, BlendPaths]:
     """§5.2 in one call (for the ablation): matrix, q and Q, and both paths."""
     matrix = build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=depth)
-    q = texture_quality(inpainted_share(seq0.inpainted, seq0.images[..., 3]),
-                        inpainted_share(seq1.inpainted, seq1.images[..., 3]), matrix.alphas)
+    q = texture_quality(unreliable_share(seq0), unreliable_share(seq1), matrix.alphas)
     Q = interpolation_quality(matrix.flows, coverage_weight(seq0.images[..., 3], seq1.images[..., 3]))
     paths = BlendPaths(matrix.times, matrix.alphas, optimal_path(q, Q, matrix.alphas, epsilon=epsilon),
                        diagonal_path(q, Q, matrix.alphas, matrix.times))

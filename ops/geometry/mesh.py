@@ -38,6 +38,16 @@ def signed_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
+def face_stretch(rest: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(m,) float64 worst scale of each face's affine map rest (n, 2) -> X (n, 2): max(sigma_max, 1 / sigma_min)
+    of its Jacobian; 1 for a rigid motion, inf for a face collapsed to a line."""
+    e = np.stack([rest[F[:, 1]] - rest[F[:, 0]], rest[F[:, 2]] - rest[F[:, 0]]], axis=-1)  # (m, 2, 2) columns
+    d = np.stack([X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]], axis=-1)
+    sigma = np.linalg.svd(d @ np.linalg.inv(e), compute_uv=False)  # (m, 2) descending
+    with np.errstate(divide="ignore"):
+        return np.maximum(sigma[:, 0], 1.0 / sigma[:, 1])
+
+
 def polygon_area(P: np.ndarray) -> float:
     """Signed area (pixels^2) of the closed polyline P (n, 2) (shoelace)."""
     x, y = P[:, 0], P[:, 1]

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 import triangle
 
-from ops.appearance.render import affine_maps, depth_order, rasterize_ids, render
+from ops.appearance.render import DISTORTION_LIMIT, Renderer, affine_maps, depth_order, rasterize_ids, render
+from ops.geometry.mesh import face_stretch
 from ops.types import Template, TexturedTemplate
 
 
@@ -233,3 +234,23 @@ def test_render_time_384():
     per_frame = (time.perf_counter() - t0) / 3
     print(f"render 384x384, {tpl.faces.shape[0]} faces, s=2: {per_frame * 1e3:.1f} ms/frame")
     assert per_frame < 0.5  # target 0.2 s; slack for the shared test machine
+
+
+def test_distorted_pixels_are_those_of_faces_scaled_past_the_limit():
+    size = 64
+    tpl = make_template(size)
+    tex = textured(tpl, size)
+    renderer = Renderer(tex)
+    _, _, at_rest = renderer.frame(tpl.rest, np.zeros((2, 3)))
+    assert not at_rest.any()
+    # the right half of the sheet pulled 3x wider: its faces are torn, the left half's untouched ones are not
+    X = tpl.rest.copy()
+    right = X[:, 0] > 32
+    X[right, 0] = 32 + 3.0 * (X[right, 0] - 32)
+    rgba, _, distorted = Renderer(tex).frame(X, np.zeros((2, 3)), (64, 160))
+    stretched = np.append(face_stretch(tpl.rest, X, tpl.faces) > DISTORTION_LIMIT, False)
+    assert stretched[:-1].any() and not stretched[:-1].all()
+    shown = rgba[..., 3] > 0.5
+    assert distorted[:, 100:][shown[:, 100:]].all()  # deep in the pulled half
+    assert not distorted[:, :25].any()  # the untouched left part
+    assert not (distorted & ~shown).any()

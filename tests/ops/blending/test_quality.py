@@ -9,7 +9,9 @@ from ops.blending.quality import (
     interpolation_quality,
     quality_table,
     texture_quality,
+    unreliable_share,
 )
+from ops.types import DeformedSequence
 
 H, W = 24, 32
 
@@ -110,3 +112,16 @@ def test_quality_table_long_format():
     assert len(row) == 1 and row.q.item() == q[1, 3] and row.Q.item() == 2.0
     with pytest.raises(ValueError):
         quality_table(times, alphas, q.T, Q)
+
+
+def test_unreliable_share_counts_inpainted_and_distorted_pixels_once():
+    alpha = np.ones((2, 4, 4), np.float32)
+    inp = np.zeros((2, 4, 4), bool)
+    dist = np.zeros((2, 4, 4), bool)
+    inp[0, 0] = True  # 4 pixels
+    dist[0, :2] = True  # 8 pixels, 4 of them also inpainted
+    seq = DeformedSequence(np.array([0.0, 1.0]), np.zeros((2, 3, 2)), np.concatenate([np.zeros((2, 4, 4, 3)),
+                           alpha[..., None]], -1), inp, np.zeros(2), np.zeros(2, np.int64), dist)
+    np.testing.assert_allclose(unreliable_share(seq), [8 / 16, 0.0])
+    seq.distorted = None  # a lane stored before distortion was measured: the paper's q
+    np.testing.assert_allclose(unreliable_share(seq), [4 / 16, 0.0])

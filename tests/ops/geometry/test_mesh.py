@@ -4,6 +4,7 @@ import pytest
 
 from ops.geometry.mesh import (
     boundary_loops,
+    face_stretch,
     points_in_polygon,
     polygon_area,
     project_to_polyline,
@@ -101,3 +102,17 @@ def test_components():
 def test_degenerate_outer_raises():
     with pytest.raises(ValueError):
         triangulate([np.array([[0.0, 0.0], [1.0, 1.0], [0.0, 0.0]])], 1.0)
+
+
+def test_face_stretch_is_one_for_rigid_motions_and_the_worst_scale_otherwise():
+    rng = np.random.default_rng(3)
+    rest = rng.uniform(0, 50, size=(30, 2))
+    F = np.array([[i, i + 1, i + 2] for i in range(0, 27, 3)])
+    c, s = np.cos(0.7), np.sin(0.7)
+    rigid = rest @ np.array([[c, -s], [s, c]]).T + [5.0, -3.0]
+    np.testing.assert_allclose(face_stretch(rest, rigid, F), 1.0, rtol=1e-9)
+    np.testing.assert_allclose(face_stretch(rest, rest * [3.0, 1.0], F), 3.0, rtol=1e-9)  # stretched 3x
+    np.testing.assert_allclose(face_stretch(rest, rest * [1.0, 0.25], F), 4.0, rtol=1e-9)  # squashed to 1/4
+    shear = rest @ np.array([[1.0, 1.5], [0.0, 1.0]]).T
+    sigma = np.linalg.svd(np.array([[1.0, 1.5], [0.0, 1.0]]), compute_uv=False)  # brute force: one matrix
+    np.testing.assert_allclose(face_stretch(rest, shear, F), max(sigma[0], 1 / sigma[1]), rtol=1e-9)
