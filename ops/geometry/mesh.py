@@ -40,12 +40,22 @@ def signed_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
 
 def face_stretch(rest: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
     """(m,) float64 worst scale of each face's affine map rest (n, 2) -> X (n, 2): max(sigma_max, 1 / sigma_min)
-    of its Jacobian; 1 for a rigid motion, inf for a face collapsed to a line."""
-    e = np.stack([rest[F[:, 1]] - rest[F[:, 0]], rest[F[:, 2]] - rest[F[:, 0]]], axis=-1)  # (m, 2, 2) columns
-    d = np.stack([X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]], axis=-1)
-    sigma = np.linalg.svd(d @ np.linalg.inv(e), compute_uv=False)  # (m, 2) descending
-    with np.errstate(divide="ignore"):
-        return np.maximum(sigma[:, 0], 1.0 / sigma[:, 1])
+    of its Jacobian; 1 for a rigid motion, inf for a face collapsed to a line or a degenerate rest face."""
+    e1, e2 = rest[F[:, 1]] - rest[F[:, 0]], rest[F[:, 2]] - rest[F[:, 0]]
+    d1, d2 = X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]
+    det_e = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # J = D E^-1 with E = [e1 e2], D = [d1 d2] (columns); its singular values in closed form
+        a = (d1[:, 0] * e2[:, 1] - d2[:, 0] * e1[:, 1]) / det_e
+        b = (d2[:, 0] * e1[:, 0] - d1[:, 0] * e2[:, 0]) / det_e
+        c = (d1[:, 1] * e2[:, 1] - d2[:, 1] * e1[:, 1]) / det_e
+        d = (d2[:, 1] * e1[:, 0] - d1[:, 1] * e2[:, 0]) / det_e
+        frob, det = a * a + b * b + c * c + d * d, np.abs(a * d - b * c)
+        root = np.sqrt(np.maximum(frob * frob - 4.0 * det * det, 0.0))
+        s_max = np.sqrt(0.5 * (frob + root))
+        s_min = det / s_max
+        stretch = np.maximum(s_max, 1.0 / s_min)
+    return np.where(np.isfinite(stretch), stretch, np.inf)
 
 
 def polygon_area(P: np.ndarray) -> float:

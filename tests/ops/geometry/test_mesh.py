@@ -116,3 +116,23 @@ def test_face_stretch_is_one_for_rigid_motions_and_the_worst_scale_otherwise():
     shear = rest @ np.array([[1.0, 1.5], [0.0, 1.0]]).T
     sigma = np.linalg.svd(np.array([[1.0, 1.5], [0.0, 1.0]]), compute_uv=False)  # brute force: one matrix
     np.testing.assert_allclose(face_stretch(rest, shear, F), max(sigma[0], 1 / sigma[1]), rtol=1e-9)
+
+
+def test_face_stretch_matches_the_svd_and_survives_degenerate_faces():
+    rng = np.random.default_rng(5)
+    rest = rng.uniform(0, 50, size=(60, 2))
+    X = rest + rng.normal(scale=8.0, size=rest.shape)
+    F = np.arange(60).reshape(20, 3)
+    brute = []
+    for f in F:
+        E = np.stack([rest[f[1]] - rest[f[0]], rest[f[2]] - rest[f[0]]], 1)
+        D = np.stack([X[f[1]] - X[f[0]], X[f[2]] - X[f[0]]], 1)
+        s = np.linalg.svd(D @ np.linalg.inv(E), compute_uv=False)
+        brute.append(max(s[0], 1 / s[1]))
+    np.testing.assert_allclose(face_stretch(rest, X, F), brute, rtol=1e-7)
+    flat = X.copy()
+    flat[F[0, 2]] = 0.5 * (flat[F[0, 0]] + flat[F[0, 1]])  # collapsed to a line
+    line_rest = rest.copy()
+    line_rest[F[1, 2]] = line_rest[F[1, 0]]  # a degenerate rest face
+    out = face_stretch(line_rest, flat, F)
+    assert out[0] > 1e6 and np.isinf(out[1]) and np.isfinite(out[2:]).all()
