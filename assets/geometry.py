@@ -121,7 +121,8 @@ def _deformed(k: int):
                 "iterations_total": int(seq.iterations.sum()),
                 "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max()),
                 "distorted_share_max": float((seq.distorted.sum((1, 2)) / coverage).max())}
-        return StageResult(seq, meta, preview.frame_strip(seq.images))
+        marks = [(seq.inpainted, preview.INPAINTED_TINT), (seq.distorted, preview.DISTORTED_TINT)]
+        return StageResult(seq, meta, preview.frame_strip(seq.images, marks=marks))
 
     return compute
 

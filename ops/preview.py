@@ -135,8 +135,13 @@ def strip_thumb_width(n: int, width: int) -> int:
     return min(width, max(MIN_THUMB, MAX_WIDTH // max(n, 1)))
 
 
-def frame_strip(frames: np.ndarray, max_frames: int = 9) -> np.ndarray:
-    """frames: (T, H, W, 4) -> (h, n * thumb_w, 3) float32, up to max_frames evenly spaced, over a checkerboard."""
+def frame_strip(frames: np.ndarray, max_frames: int = 9,
+                marks: list[tuple[np.ndarray, tuple[float, float, float]]] = ()) -> np.ndarray:
+    """frames: (T, H, W, 4) -> (h, n * thumb_w, 3) float32, up to max_frames evenly spaced, over a checkerboard.
+
+    marks: ((T, H, W) bool pixels, (r, g, b) in [0, 1]) tinted half-way to that colour, so what a stage
+    distrusts (inpainted or torn texture) shows in its preview.
+    """
     n_t, h, w = frames.shape[:3]
     idx = np.unique(np.round(np.linspace(0, n_t - 1, min(n_t, max_frames))).astype(np.int64))
     tw = strip_thumb_width(len(idx), w)
@@ -144,10 +149,18 @@ def frame_strip(frames: np.ndarray, max_frames: int = 9) -> np.ndarray:
     board = checkerboard(th, tw)
     thumbs = []
     for i in idx:  # one frame at a time: frames may be a memmap
-        small = cv2.resize(to_rgba(np.asarray(frames[i], np.float32)), (tw, th), interpolation=cv2.INTER_AREA)
+        rgba = to_rgba(np.asarray(frames[i], np.float32)).copy()
+        for pixels, colour in marks:
+            hit = np.asarray(pixels[i], bool)
+            rgba[hit, :3] = 0.5 * rgba[hit, :3] + 0.5 * np.asarray(colour, np.float32)
+        small = cv2.resize(rgba, (tw, th), interpolation=cv2.INTER_AREA)
         a = small[..., 3:4]
         thumbs.append(small[..., :3] * a + board * (1 - a))
     return np.concatenate(thumbs, axis=1).astype(np.float32)
+
+
+INPAINTED_TINT = (0.15, 0.35, 1.0)  # blue: texture the drawing does not show (§5.1 inpainting)
+DISTORTED_TINT = (1.0, 0.1, 0.1)  # red: texture stretched or squashed past the renderer's limit (a tear)
 
 
 LABEL_BAND = 18  # pixels above each image in side_by_side

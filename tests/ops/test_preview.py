@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from ops.preview import (
+    DISTORTED_TINT,
     FG_TINT,
     FG_WEIGHT,
     FRONT_COLOUR,
@@ -95,6 +96,17 @@ def test_frame_strip_width_and_checkerboard():
     many = frame_strip(np.zeros((30, 100, 200, 4), np.float32), max_frames=9)
     tw = strip_thumb_width(9, 200)
     assert many.shape[1] == 9 * tw and tw * 9 <= 1.2 * MAX_WIDTH
+
+
+def test_frame_strip_tints_marked_pixels_only():
+    frames = np.zeros((3, 40, 60, 4), np.float32)
+    frames[..., :3], frames[..., 3] = 0.8, 1.0
+    torn = np.zeros((3, 40, 60), bool)
+    torn[1, 10:20, 10:20] = True  # frame 1 only
+    strip = frame_strip(frames, marks=[(torn, DISTORTED_TINT)])
+    np.testing.assert_allclose(strip[15, 60 + 15], 0.5 * 0.8 + 0.5 * np.array(DISTORTED_TINT), atol=1e-6)
+    np.testing.assert_allclose(strip[15, 15], 0.8, atol=1e-6)  # the same pixel of frame 0
+    np.testing.assert_allclose(strip[30, 60 + 30], 0.8, atol=1e-6)  # frame 1 outside the mark
 
 
 def test_side_by_side_labels_and_width():
