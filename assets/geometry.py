@@ -117,10 +117,13 @@ def _deformed(k: int):
         seq = deform_lane(textured, shot.times, shot.poses, k == 1, shot.size, s.mu, s.supersample)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
+
+        def share_max(pixels: np.ndarray) -> float:  # the worst frame's share of its visible character
+            return float((pixels.sum((1, 2)) / coverage).max())
+
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
-                "iterations_total": int(seq.iterations.sum()),
-                "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max()),
-                "distorted_share_max": float((seq.distorted.sum((1, 2)) / coverage).max())}
+                "iterations_total": int(seq.iterations.sum()), "inpainted_share_max": share_max(seq.inpainted),
+                "distorted_share_max": share_max(seq.distorted)}
         marks = [(seq.inpainted, preview.INPAINTED_TINT), (seq.distorted, preview.DISTORTED_TINT)]
         return StageResult(seq, meta, preview.frame_strip(seq.images, marks=marks))
 

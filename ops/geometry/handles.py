@@ -5,12 +5,13 @@ alone, a limb whose neighbour turns bows between its handles (a lamp's straight
 arm bent by 4 px at 256 px; lamp 21.5 -> 24.5 dB, arm_cross 25.5 -> 27.6 dB).
 A handle outside the domain (a joint clicked just off the drawing, or a bone
 point in paper between two parts) is moved to the nearest point safely inside
-it, with a warning, and keeps its offset from the skeleton in the frame of its bone: its target at any pose is
-the skeleton point plus that offset turned with the bone, so at the keyframe's
-own pose every target is exactly where the handle is drawn (the rest mesh
-needs no deformation and the keyframe is reproduced). Every component of the
-domain that a bone crosses gets a handle on that bone, so a hand drawn apart
-from its arm follows the arm instead of floating at rest.
+it, with a warning, and keeps its offset from the skeleton in the frame of its
+bone: its target at any pose is the skeleton point plus that offset turned
+with the bone, so at the keyframe's own pose every target is exactly where the
+handle is drawn (the rest mesh needs no deformation and the keyframe is
+reproduced). Every component of the domain that a bone crosses gets a handle
+on that bone, so a hand drawn apart from its arm follows the arm instead of
+floating at rest.
 """
 from __future__ import annotations
 

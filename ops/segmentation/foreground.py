@@ -69,6 +69,12 @@ def closing(mask: np.ndarray, radius: int) -> np.ndarray:
     return cv2.morphologyEx(padded, cv2.MORPH_CLOSE, kernel)[pad:-pad, pad:-pad] > 0
 
 
+def past_margin(mask: np.ndarray) -> np.ndarray:
+    """(H, W) bool mask grown by a disc of MARGIN_PX: where the soft edge of its ink may still reach."""
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
+    return cv2.dilate(mask.astype(np.uint8), disc) > 0
+
+
 def bone_touched(mask: np.ndarray, touch: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """(H, W) bool the 8-connected components of mask that the (H, W) bool bone pixels touch; warnings.
 
@@ -173,8 +179,7 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
     sealed = closing(page.smooth_delta > page.ink_delta, close_radius(mask.shape)) & mask
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
-    reach = (cv2.dilate(mask.astype(np.uint8), disc) > 0) & ~holes
+    reach = past_margin(mask) & ~holes
     coverage, colour = unmix(
         rgb, page.paper.rgb, mask, reach, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
         page.paper_delta,
@@ -204,8 +209,7 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     holes = find_holes(silhouette, sealed, touch, near, points, reach[owner], min_radius=r)
     solid = silhouette & ~holes
 
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MARGIN_PX + 1,) * 2)
-    mask = cv2.dilate(solid.astype(np.uint8), disc) > 0
+    mask = past_margin(solid)
     coverage, colour = unmix(
         rgb, page.paper.rgb, solid, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
         page.paper_delta,
