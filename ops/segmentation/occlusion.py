@@ -71,22 +71,29 @@ def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton) -> 
 
 
 def _region_front_bones(region: np.ndarray, pairs: list, thick: np.ndarray, adjacent: np.ndarray) -> tuple[int, np.ndarray]:
-    """Main front bone and (b,) int64 front bones of one region, from the pairs overlapping it."""
-    votes: dict[int, int] = {}
-    backs = set()
+    """Main front bone and (b,) int64 front bones of one region, from the pairs overlapping it.
+
+    A bone is in front where it is the nearer of a pair and behind where it is the farther. It is a front bone
+    of the region when it is in front on more of the region's pixels than behind, so a region where an arm
+    covers the belly and the near thigh covers the far one keeps both the arm and the near thigh in front.
+    A neighbour of the main bone that is behind on no pixel joins when its body covers a tenth of the region.
+    """
+    front_px: dict[int, int] = {}
+    back_px: dict[int, int] = {}
     for front, back, overlap in pairs:
         n = int((overlap & region).sum())
         if n:
-            votes[front] = votes.get(front, 0) + n
-            backs.add(back)
-    main = max(votes, key=votes.get)
+            front_px[front] = front_px.get(front, 0) + n
+            back_px[back] = back_px.get(back, 0) + n
+    main = max(front_px, key=front_px.get)
+    voted = [b for b, n in front_px.items() if n > back_px.get(b, 0)]
     area = int(region.sum())
     extra = [
         b
         for b in np.nonzero(adjacent[main])[0]
-        if b != main and b not in backs and (thick[b] & region).sum() >= 0.1 * area
+        if b != main and b not in back_px and (thick[b] & region).sum() >= 0.1 * area
     ]
-    return main, np.array(sorted({main, *map(int, extra)}), np.int64)
+    return main, np.array(sorted({main, *voted, *map(int, extra)}), np.int64)
 
 
 def predict_occlusion(

@@ -147,6 +147,26 @@ def test_predicted_crossing_puts_forearm_in_front():
         assert not (r & ~masks.foreground).any()
 
 
+def test_merged_region_keeps_every_bone_mostly_in_front():
+    """A forearm over the belly whose overlap touches the near shin's over the far shin: one region, and the near
+    shin stays in front there (with the arm alone in front, the near leg went to the pocket and the drawn leg had
+    no handle: flat_colour)."""
+    shape = (200, 160)
+    skeleton = Skeleton(("hips", "neck", "shoulder", "elbow", "hand", "rknee", "rfoot", "lknee", "lfoot"),
+                        np.array([-1, 0, 1, 2, 3, 0, 5, 0, 7]))
+    pose = np.array([[80, 110, 0], [80, 35, 0], [95, 45, -1], [130, 95, -1], [76, 140, -1],
+                     [78, 150, -0.5], [78, 190, -0.5], [83, 150, 0.5], [83, 190, 0.5]])
+    fg = np.zeros(shape, bool)
+    for p, c in skeleton.bones:
+        fg |= capsule(shape, pose[p, :2], pose[c, :2], 22 if c == 1 else 9)
+    regions, fronts, _ = predict_occlusion(fg, pose, skeleton)
+    merged = int(np.argmax([r.sum() for r in regions]))
+    assert regions[merged][140:190].any() and regions[merged][60:110].any()  # belly and shins: one region
+    # bones (child order): 3 elbow-hand, 5 rknee-rfoot (near shin) in front; torso 0 and far leg 6, 7 behind
+    assert {3, 5} <= set(fronts[merged].tolist())
+    assert not {0, 6, 7} & set(fronts[merged].tolist())
+
+
 def test_adjacent_bones_produce_no_region():
     shape = (128, 128)
     upper = capsule(shape, (30, 40), (80, 60), 10)
