@@ -42,9 +42,11 @@ _TYPES = {cls.__name__: cls for cls in vars(T).values() if dataclasses.is_datacl
 
 
 def _is_table(value: Any) -> bool:
-    """A pandas DataFrame? (pandas is imported only where tables are read: an unchanged rerun never needs it)."""
-    pd = sys.modules.get("pandas")
-    return pd is not None and isinstance(value, pd.DataFrame)
+    """A pandas DataFrame? Told by its class, without touching pandas: pandas is imported only where tables
+    are read (an unchanged rerun never needs it), and an idle worker may be importing it on another thread
+    right now, when sys.modules already holds the half-initialized module (no DataFrame attribute yet)."""
+    cls = type(value)
+    return cls.__name__ == "DataFrame" and cls.__module__.split(".")[0] == "pandas"
 
 
 def content_hash(value: Any) -> str:

@@ -80,3 +80,23 @@ def test_an_output_written_ahead_is_renamed_into_place_by_its_write(tmp_path):
     store.stage("key0/masks", "shot", value, digest, record)
     store.discard("key0/masks", "shot")
     assert sorted(p.name for p in parent.iterdir()) == ["refined_masks"]
+
+
+def test_hash_while_pandas_is_half_imported(monkeypatch):
+    """An idle worker imports pandas on its own thread; meanwhile sys.modules holds the half-initialized module,
+    with no DataFrame yet. Hashing a stage's value then must not touch it (two_poses crashed in
+    key1/textured_template with "partially initialized module 'pandas' has no attribute 'DataFrame'")."""
+    import sys
+    import types
+
+    expected = content_hash(_refined_fixed())
+    monkeypatch.setitem(sys.modules, "pandas", types.ModuleType("pandas"))
+    assert content_hash(_refined_fixed()) == expected
+    monkeypatch.undo()
+    assert content_hash(pd.DataFrame({"q": [0.1]})) == content_hash(pd.DataFrame({"q": [0.1]}))
+
+
+def _refined_fixed() -> RefinedMasks:
+    """_refined with fixed numbers, so two calls hash alike."""
+    np.random.seed(3)
+    return _refined()
