@@ -175,7 +175,7 @@ def _batch(args) -> int:
                                 executor=args.executor)
     print(table([rows[n] for n in sorted(rows)]))
     for err in errors:
-        print(f"error: {err}", file=sys.stderr)
+        _say(f"error: {err}")
     print(f"{len(reports)} shots done, {len(errors)} failed, {time.perf_counter() - t0:.1f} s")
     if any(not getattr(e, "bad_input", True) for e in errors):
         return EXIT_FAILED
@@ -254,6 +254,13 @@ def _crash_log(trace: str) -> Path | None:
         return None
 
 
+def _say(text: str) -> None:
+    """A line for the user on stderr, never into an image reader's capture of fd 2 on a thread still running."""
+    from ops.shotio.image_io import say_on_stderr  # OpenImageIO: only on this path, and a run has loaded it
+
+    say_on_stderr(text)
+
+
 def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
@@ -267,30 +274,29 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return COMMANDS[args.command](args)
     except ShotError as e:
-        print(f"error: {_one_line(e)}", file=sys.stderr)
+        _say(f"error: {_one_line(e)}")
         return EXIT_BAD_INPUT
     except StageFailed as e:
         if getattr(args, "debug", False) and e.trace:
-            print(e.trace, file=sys.stderr)
+            _say(e.trace)
         where = f" (full log: {e.log})" if e.log else ""
-        print(f"error: {_one_line(e)}{where}", file=sys.stderr)
+        _say(f"error: {_one_line(e)}{where}")
         return EXIT_FAILED
     except HomeDamaged as e:
-        print(f"error: {_one_line(e)}", file=sys.stderr)
+        _say(f"error: {_one_line(e)}")
         return EXIT_FAILED
     except KeyboardInterrupt:
-        print("error: interrupted; stages already stored are kept, a rerun continues from them", file=sys.stderr)
+        _say("error: interrupted; stages already stored are kept, a rerun continues from them")
         return 130
     except Exception as e:  # anything else: one line here, the trace in a log
         trace = traceback.format_exc()
         if getattr(args, "debug", False):
-            print(trace, file=sys.stderr, end="")
+            _say(trace.rstrip("\n"))
         log = _crash_log(trace)
         where = f" (full trace: {log})" if log else ""
         fix = ("free disk space, then rerun" if isinstance(e, OSError) and e.errno == 28
                else "rerun with --debug for the full trace")
-        print(f"error: {args.command}: {_one_line(f'{type(e).__name__}: {e}')[:300]}; fix: {fix}{where}",
-              file=sys.stderr)
+        _say(f"error: {args.command}: {_one_line(f'{type(e).__name__}: {e}')[:300]}; fix: {fix}{where}")
         return EXIT_FAILED
 
 

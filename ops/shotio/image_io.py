@@ -17,6 +17,7 @@ import functools
 import os
 import sys
 import tempfile
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -39,28 +40,41 @@ def _one_line(text: str, limit: int = 240) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+# held while file descriptor 2 points into a capture: a line for the user waits for it (say_on_stderr)
+_FD2 = threading.RLock()
+
+
 @contextmanager
 def captured_stderr() -> Iterator[list[str]]:
     """Capture what C libraries print on file descriptor 2 (libpng, libjpeg) while the block runs.
 
     Yields a list that holds the captured text once the block ends. Output of other threads during
-    the block lands there too: a front end that draws progress meanwhile writes to its own dup of fd 2.
+    the block lands there too: a front end that draws progress meanwhile writes to its own dup of fd 2,
+    and a line meant for the user goes through say_on_stderr.
     """
     captured: list[str] = []
-    try:
-        sys.stderr.flush()
-    except (AttributeError, OSError, ValueError):
-        pass
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as tmp:
-        os.dup2(tmp.fileno(), 2)
+    with _FD2:
         try:
-            yield captured
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            tmp.seek(0)
-            captured.append(tmp.read(4096).decode("utf-8", "replace"))
+            sys.stderr.flush()
+        except (AttributeError, OSError, ValueError):
+            pass
+        saved = os.dup(2)
+        with tempfile.TemporaryFile() as tmp:
+            os.dup2(tmp.fileno(), 2)
+            try:
+                yield captured
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                tmp.seek(0)
+                captured.append(tmp.read(4096).decode("utf-8", "replace"))
+
+
+def say_on_stderr(text: str) -> None:
+    """Print a line on stderr, never into another thread's capture: a stage still running on a worker thread
+    when a run fails may be reading an image, and the one-line error went into its capture (lost)."""
+    with _FD2:
+        print(text, file=sys.stderr, flush=True)
 
 
 def _open(path: str | Path, field: str, config: oiio.ImageSpec | None = None):
