@@ -181,12 +181,6 @@ class Renderer:
         distorted = (downsample(torn[ids].astype(np.float32), s) >= 0.5) & shown
         return rgba.astype(np.float32), inpainted, distorted
 
-    def rgba(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
-             supersample: int = 2) -> tuple[np.ndarray, np.ndarray]:
-        """X (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W) bool)."""
-        rgba, inpainted, _ = self.frame(X, pose, shape, supersample)
-        return rgba, inpainted
-
     def over_white(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], supersample: int = 1) -> np.ndarray:
         """The same frame composited over white, (H, W, 3) float32: no round trip through straight alpha."""
         s = int(supersample)
@@ -197,4 +191,5 @@ class Renderer:
 def render(textured: TexturedTemplate, X: np.ndarray, pose: np.ndarray,
            shape: tuple[int, int] | None = None, supersample: int = 2) -> tuple[np.ndarray, np.ndarray]:
     """X: (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W) bool)."""
-    return Renderer(textured).rgba(X, pose, shape, supersample)
+    rgba, inpainted, _ = Renderer(textured).frame(X, pose, shape, supersample)
+    return rgba, inpainted
