@@ -21,6 +21,7 @@ from scipy import ndimage
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
 from ops.geometry.snap import snap_into
+from ops.segmentation.contacts import slit_of
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
 from ops.types import Masks, RefinedMasks, Skeleton
@@ -242,6 +243,8 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         bounds.append(B)
         juncs.append(jidx)
     domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
+    taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
+    slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,
@@ -254,4 +257,5 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         paper=masks.paper,
         colour=masks.colour,
         warnings=warnings,
+        slits=slits,
     )
