@@ -14,6 +14,7 @@ out of their contact, as of their overlap.
 """
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from scipy import ndimage
 from scipy.sparse import coo_matrix
@@ -22,70 +23,64 @@ from skimage.morphology import skeletonize
 
 from ops.geometry.mesh import project_to_polyline
 
-from ops.segmentation.bones import bone_radii, segment_distance
+from ops.segmentation.bones import segment_distance, thick_regions
 from ops.types import Skeleton
 
-CONTACT_BAND_PX = 2  # the band reaches this far into each body from the border between their cells
-MIN_CONTACT_PX = 8  # shorter contacts (band area / band width) are a corner touching, not a shared stroke
+STROKE_PX, STROKE_CONTRAST = 3, 0.12  # a stroke: darker by this (luminance) than the brightest within STROKE_PX
+SIDE_PX = 3  # a stroke pixel's sides: the pixels between strokes within this distance
+MIN_CONTACT_PX = 8  # shorter contacts are a corner touching, not a shared stroke
+AVOID_PX = 3  # a slit keeps this far from the occlusion regions' boundaries (mesh constraints)
 SLIT_STEP_PX = 3  # spacing of a slit's polyline vertices along the contact
 REACH_OUTLINE_PX = 6.0  # a slit's end this close to the outline is carried on to it
 
 
-def body_cells(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(B, H, W) bool: every foreground pixel goes to the bone whose body surface is nearest (distance to the
-    segment less the bone's radius), so two cells meet where the drawn bodies meet, not halfway between the
-    bones (a thin arm along a wide torso)."""
-    ys, xs = np.nonzero(foreground)
+def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+                    ) -> list[np.ndarray]:
+    """(H, W) bool contacts of a (H, W, C) float32 drawing: stroke pixels inside the (H, W) bool foreground with
+    the bodies of two bones that are not neighbours on their two sides, in pieces at least MIN_CONTACT_PX long.
+
+    A stroke is a pixel darker than the brightest within STROKE_PX by STROKE_CONTRAST (ink on paper, a dark
+    outline on a colour fill, pencil). The pixels between strokes go to their nearest bone. Bones joined
+    through one short bone (spine - clavicle - upper arm) meet around it: that bone's body is left out, so
+    the arm stays attached at the shoulder.
+    """
+    rgb = np.asarray(drawing, np.float32)[..., :3] if drawing.ndim == 3 else np.asarray(drawing, np.float32)[..., None]
+    lum = rgb.mean(axis=-1)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * STROKE_PX + 1,) * 2)
+    stroke = foreground & ((cv2.dilate(lum, kernel) - lum) > STROKE_CONTRAST)
+    inside = foreground & ~stroke
+    ys, xs = np.nonzero(inside)
+    if len(xs) == 0 or len(skeleton.bones) < 2:
+        return []
     p = np.stack([xs, ys], axis=1).astype(np.float64)
-    radii = bone_radii(foreground, pose, skeleton)
-    gap = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) - r for (a, b), r in zip(skeleton.bones, radii)])
-    owner = np.argmin(gap, axis=0)
-    cells = np.zeros((len(radii),) + foreground.shape, bool)
-    cells[owner, ys, xs] = True
-    return cells
-
-
-def contact_bands(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton, thick: np.ndarray,
-                  depth: np.ndarray) -> list[tuple[int, int, np.ndarray]]:
-    """(front bone, back bone, (H, W) bool band) of every contact; thick: (B, H, W) bool bodies (thick_regions),
-    depth: (B,) bone depths (larger = farther). Pairs of equal depth have no front and are left out."""
-    cells = body_cells(foreground, pose, skeleton)
-    near = [ndimage.binary_dilation(c, iterations=CONTACT_BAND_PX) if c.any() else c for c in cells]
+    dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
+    owner = np.argmin(dist, axis=0)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * SIDE_PX + 1,) * 2)
+    near = np.zeros((len(skeleton.bones),) + foreground.shape, bool)
+    for bone in np.unique(owner):
+        cell = np.zeros(foreground.shape, np.uint8)
+        cell[ys[owner == bone], xs[owner == bone]] = 1
+        near[bone] = (cv2.dilate(cell, disc) > 0) & stroke
     adjacent = skeleton.adjacent_bones()
-    out = []
-    for i in range(len(cells)):
-        for j in range(i + 1, len(cells)):
-            if adjacent[i, j] or np.isclose(depth[i], depth[j]):
+    thick = thick_regions(foreground, pose, skeleton)
+    touching = np.zeros(foreground.shape, bool)
+    present = [b for b in range(len(near)) if near[b].any()]
+    for i in present:
+        for j in present:
+            if j <= i or adjacent[i, j]:
                 continue
-            band = ((cells[i] & near[j]) | (cells[j] & near[i])) & foreground
+            both = near[i] & near[j]
             between = adjacent[i] & adjacent[j]
             if between.any():
-                band &= ~thick[between].any(axis=0)
-            if not band.any():
-                continue
-            front, back = (i, j) if depth[i] < depth[j] else (j, i)
-            out.append((front, back, band))
-    return out
-
-
-def band_ends(band: np.ndarray) -> np.ndarray:
-    """(2, 2) float64 (x, y) of the two pixels of a (H, W) bool band farthest apart (its ends, for a strip)."""
-    ys, xs = np.nonzero(band)
-    p = np.stack([xs, ys], axis=1).astype(np.float64)
-    a = p[np.argmax(((p - p.mean(axis=0)) ** 2).sum(axis=1))]
-    b = p[np.argmax(((p - a) ** 2).sum(axis=1))]
-    return np.stack([a, b])
-
-
-def contact_pieces(bands: list[tuple[int, int, np.ndarray]]) -> list[np.ndarray]:
-    """(H, W) bool pieces of the bands' union at least MIN_CONTACT_PX long. The union first: an arm along the
-    torso touches it with the upper arm and the forearm, one stroke to be cut whole."""
-    if not bands:
-        return []
-    labels, n = ndimage.label(np.any([band for _, _, band in bands], axis=0), structure=np.ones((3, 3), bool))
-    sizes = np.bincount(labels.ravel(), minlength=n + 1)
-    width = 2 * CONTACT_BAND_PX + 1
-    return [labels == lab for lab in range(1, n + 1) if sizes[lab] >= MIN_CONTACT_PX * width]
+                both &= ~thick[between].any(axis=0)
+            touching |= both
+    labels, n = ndimage.label(touching, structure=np.ones((3, 3), bool))
+    pieces = []
+    for lab in range(1, n + 1):
+        piece = labels == lab
+        if len(_longest_path(skeletonize(piece))) >= MIN_CONTACT_PX:
+            pieces.append(piece)
+    return pieces
 
 
 def _longest_path(pixels: np.ndarray) -> np.ndarray:
@@ -121,14 +116,12 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> n
     the domain's outline (closed polylines) when within REACH_OUTLINE_PX of it so the cut opens there; None
     when too little of the piece is left."""
     if avoid.any():
-        piece = piece & ~ndimage.binary_dilation(avoid, iterations=CONTACT_BAND_PX + 1)
+        piece = piece & ~ndimage.binary_dilation(avoid, iterations=AVOID_PX)
     labels, n = ndimage.label(piece, structure=np.ones((3, 3), bool))
     if n == 0:
         return None
     sizes = np.bincount(labels.ravel())[1:]
     piece = labels == 1 + int(np.argmax(sizes))
-    if sizes.max() < MIN_CONTACT_PX * (2 * CONTACT_BAND_PX + 1):
-        return None
     path = _longest_path(skeletonize(piece))
     if len(path) < MIN_CONTACT_PX:
         return None

@@ -13,7 +13,8 @@ from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
-from ops.segmentation.occlusion import predict_with_contacts
+from ops.segmentation.contacts import stroke_contacts
+from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.types import Masks, Skeleton
 
 NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
@@ -99,8 +100,9 @@ def build_masks(
         regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False)
         warnings += w
     elif predicted:
-        regions, fronts, contacts, w = predict_with_contacts(body, pose, skeleton)
+        regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
+        contacts = stroke_contacts(drawing, body, pose, skeleton)
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w

@@ -29,7 +29,6 @@ import numpy as np
 from scipy import ndimage
 
 from ops.segmentation.bones import bone_depths, thick_regions
-from ops.segmentation.contacts import contact_bands, contact_pieces
 from ops.types import Skeleton
 
 MIN_REGION_FRACTION = 0.002  # occlusion components smaller than this share of the foreground are noise
@@ -100,18 +99,7 @@ def _region_front_bones(region: np.ndarray, pairs: list, thick: np.ndarray, adja
 def predict_occlusion(
     foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
 ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
-    """Predicted occlusion regions ((H, W) bool each, back to front), their (b,) int64 front bones, warnings.
-
-    predict_with_contacts also returns where two bodies touch (ops.segmentation.contacts).
-    """
-    regions, fronts, _, warnings = predict_with_contacts(foreground, pose, skeleton, contacts=False)
-    return regions, fronts, warnings
-
-
-def predict_with_contacts(
-    foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton, contacts: bool = True
-) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], list[str]]:
-    """predict_occlusion, plus the (H, W) bool contacts where two bodies touch (ops.segmentation.contacts)."""
+    """Predicted occlusion regions ((H, W) bool each, back to front), their (b,) int64 front bones, warnings."""
     thick = thick_regions(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
     adjacent = skeleton.adjacent_bones()
@@ -137,6 +125,4 @@ def predict_with_contacts(
             f"{MIN_REGION_FRACTION:.1%} of the foreground ({min_area:.0f} px)"
         )
     order = np.argsort(np.array(keys), kind="stable")
-    regions, fronts = [regions[i] for i in order], [fronts[i] for i in order]
-    pieces = contact_pieces(contact_bands(foreground, pose, skeleton, thick, depth)) if contacts else []
-    return regions, fronts, pieces, warnings
+    return [regions[i] for i in order], [fronts[i] for i in order], warnings
