@@ -68,7 +68,7 @@ class Masks:
     n_holes: int  # connected holes, each a hole in the mesh
     warnings: list[str] = field(default_factory=list)
     # (H, W) bool each: where the bodies of two bones that are not neighbours touch (ops.segmentation.contacts);
-    # the template is slit along them. Predicted with the skeleton rule only (empty for manual regions).
+    # the template is slit along them. Found whenever the occlusion is predicted (empty for painted regions).
     contacts: list[np.ndarray] = field(default_factory=list)
 
 

@@ -1,14 +1,16 @@
-"""Contacts: where the bodies of two bones that are not neighbours touch without overlapping.
+"""Contacts: where the bodies of two bones that are not neighbours touch along a shared stroke.
 
 An arm hanging along the torso, a hand resting on a hip, legs standing together: the drawing separates the
-parts by a shared stroke, the foreground merges them, and a mesh glued across the stroke drags the torso's
-side along when the arm lifts (hand_on_hip). The skeleton rule (ops.segmentation.occlusion) sees only bodies
-that overlap. Here every foreground pixel goes to the bone whose body surface is nearest (body_cells), and
-where the cells of two non-adjacent bones meet, a band CONTACT_BAND_PX wide on either side of the
-border is a contact. Each piece of a band outside the overlap regions becomes an occlusion region of its own in front of the
-nearer bone, with exactly two T-junctions at its ends: one long side is sewn to the front and the other to the
-pocket, so the mesh is cut along one side of the shared stroke, and the cut search (ops.geometry.topology)
-picks which side.
+parts by a stroke, the foreground merges them, and a mesh glued across the stroke drags the torso's side
+along when the arm lifts (hand_on_hip). The skeleton rule (ops.segmentation.occlusion) sees only bodies
+that overlap. Here the pixels between strokes go to bones (the nearest bone among those that hold their
+compartment of the drawing), and a stroke with the bodies of two non-adjacent bones on its two sides is a
+contact. The template is slit along it (slit_of; ops.geometry.mesh.cut_along), so the parts part when
+the limb moves and stay sewn where they are one body.
+
+An overlap region no thicker than the contact's band (thin_overlaps) is the same touch seen by the
+skeleton rule: the hand's capsule dips into the hip. It hides nothing worth a pocket, and its pocket would
+glue the hand to the hip again, so the slit replaces it.
 Bones joined through one short bone (spine - clavicle - upper arm) meet around it: that bone's body is left
 out of their contact, as of their overlap.
 """
@@ -22,8 +24,7 @@ from scipy.sparse.csgraph import dijkstra
 from skimage.morphology import skeletonize
 
 from ops.geometry.mesh import project_to_polyline
-
-from ops.segmentation.bones import segment_distance, thick_regions
+from ops.segmentation.bones import bone_samples, segment_distance, thick_regions
 from ops.types import Skeleton
 
 STROKE_PX, STROKE_CONTRAST = 3, 0.12  # a stroke: darker by this (luminance) than the brightest within STROKE_PX
@@ -32,6 +33,10 @@ MIN_CONTACT_PX = 8  # shorter contacts are a corner touching, not a shared strok
 AVOID_PX = 3  # a slit keeps this far from the occlusion regions' boundaries (mesh constraints)
 SLIT_STEP_PX = 3  # spacing of a slit's polyline vertices along the contact
 REACH_OUTLINE_PX = 6.0  # a slit's end this close to the outline is carried on to it
+HOLD_SHARE = 0.25  # a bone holds the compartment between strokes that has this share of its length
+FAR_PX = 1e4  # distance added to a bone outside the compartments it holds
+FOUR = ndimage.generate_binary_structure(2, 1)
+THIN_SHARE = 0.95  # an overlap region with this share of its pixels within SIDE_PX + 1 of a contact is one
 
 
 def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
@@ -54,6 +59,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
         return []
     p = np.stack([xs, ys], axis=1).astype(np.float64)
     dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
+    dist += _compartment_penalty(inside, pose, skeleton)[:, ys, xs]
     owner = np.argmin(dist, axis=0)
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * SIDE_PX + 1,) * 2)
     near = np.zeros((len(skeleton.bones),) + foreground.shape, bool)
@@ -81,6 +87,41 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
         if len(_longest_path(skeletonize(piece))) >= MIN_CONTACT_PX:
             pieces.append(piece)
     return pieces
+
+
+def thin_overlaps(regions: list[np.ndarray], contacts: list[np.ndarray]) -> np.ndarray:
+    """(R,) bool: which (H, W) bool overlap regions lie along the (H, W) bool contacts, THIN_SHARE of their
+    pixels within SIDE_PX + 1 of one (the band a contact's two sides span)."""
+    if not regions or not contacts:
+        return np.zeros(len(regions), bool)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * SIDE_PX + 3,) * 2)
+    band = cv2.dilate(np.any(contacts, axis=0).astype(np.uint8), disc) > 0
+    return np.array([(r & band).sum() >= THIN_SHARE * max(int(r.sum()), 1) for r in regions], bool)
+
+
+def _compartment_penalty(inside: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(B, H, W) float64 added distance: 0 inside the compartments a bone holds, FAR elsewhere (0 everywhere
+    for a compartment that holds no bone).
+
+    A compartment is a 4-connected piece of the (H, W) bool pixels between strokes. A bone holds one when at
+    least HOLD_SHARE of its length lies in it: a hand joint drawn on the torso's outline dips the forearm's
+    tip into the torso, but the torso's pixels near it still belong to the torso's bones.
+    """
+    labels, n = ndimage.label(inside, structure=FOUR)
+    points, owner = bone_samples(pose, skeleton, step=1.0)
+    h, w = inside.shape
+    xy = np.round(points).astype(np.int64)
+    ok = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)
+    comp = np.zeros(len(points), np.int64)
+    comp[ok] = labels[xy[ok, 1], xy[ok, 0]]
+    B = len(skeleton.bones)
+    counts = np.zeros((B, n + 1))
+    np.add.at(counts, (owner, comp), 1.0)
+    holds = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1.0) >= HOLD_SHARE
+    holds[:, 0] = False
+    held = holds.any(axis=0)
+    allowed = holds | ~held[None]  # (B, n + 1): compartments nobody holds are open to every bone
+    return np.where(allowed[:, labels], 0.0, FAR_PX)
 
 
 def _longest_path(pixels: np.ndarray) -> np.ndarray:

@@ -11,9 +11,9 @@ from scipy import ndimage
 
 from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
+from ops.segmentation.contacts import stroke_contacts
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
-from ops.segmentation.contacts import stroke_contacts
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.types import Masks, Skeleton
 
@@ -102,6 +102,7 @@ def build_masks(
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
+    if predicted:  # painted regions are the user's word on the layers: no slits beside them
         contacts = stroke_contacts(drawing, body, pose, skeleton)
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
