@@ -5,7 +5,7 @@ parts by a stroke, the foreground merges them, and a mesh glued across the strok
 along when the arm lifts (hand_on_hip). The skeleton rule (ops.segmentation.occlusion) sees only bodies
 that overlap. Here the pixels between strokes go to bones (the nearest bone among those that hold their
 compartment of the drawing), and a stroke with the bodies of two non-adjacent bones on its two sides is a
-contact. The template is slit along it (slit_of; ops.geometry.mesh.cut_along), so the parts part when
+contact. The template is slit along it (ops.segmentation.slits, ops.geometry.mesh.cut_along), so the parts part when
 the limb moves and stay sewn where they are one body.
 
 An overlap region no thicker than the contact's band (thin_overlaps) is the same touch seen by the
@@ -23,16 +23,12 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from skimage.morphology import skeletonize
 
-from ops.geometry.mesh import project_to_polyline
 from ops.segmentation.bones import bone_samples, segment_distance, thick_regions
 from ops.types import Skeleton
 
 STROKE_PX, STROKE_CONTRAST = 3, 0.12  # a stroke: darker by this (luminance) than the brightest within STROKE_PX
 SIDE_PX = 3  # a stroke pixel's sides: the pixels between strokes within this distance
 MIN_CONTACT_PX = 8  # shorter contacts are a corner touching, not a shared stroke
-AVOID_PX = 3  # a slit keeps this far from the occlusion regions' boundaries (mesh constraints)
-SLIT_STEP_PX = 3  # spacing of a slit's polyline vertices along the contact
-REACH_OUTLINE_PX = 6.0  # a slit's end this close to the outline is carried on to it
 HOLD_SHARE = 0.25  # a bone holds the compartment between strokes that has this share of its length
 FAR_PX = 1e4  # distance added to a bone outside the compartments it holds
 FOUR = ndimage.generate_binary_structure(2, 1)
@@ -84,7 +80,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     pieces = []
     for lab in range(1, n + 1):
         piece = labels == lab
-        if len(_longest_path(skeletonize(piece))) >= MIN_CONTACT_PX:
+        if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX:
             pieces.append(piece)
     return pieces
 
@@ -124,7 +120,7 @@ def _compartment_penalty(inside: np.ndarray, pose: np.ndarray, skeleton: Skeleto
     return np.where(allowed[:, labels], 0.0, FAR_PX)
 
 
-def _longest_path(pixels: np.ndarray) -> np.ndarray:
+def longest_path(pixels: np.ndarray) -> np.ndarray:
     """(k, 2) float64 (x, y) of the longest shortest path through (H, W) bool 8-connected one-pixel-wide pixels."""
     ys, xs = np.nonzero(pixels)
     index = -np.ones(pixels.shape, np.int64)
@@ -149,33 +145,3 @@ def _longest_path(pixels: np.ndarray) -> np.ndarray:
     while pred[path[-1]] >= 0:
         path.append(int(pred[path[-1]]))
     return np.stack([xs[path], ys[path]], axis=1).astype(np.float64)
-
-
-def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> np.ndarray | None:
-    """(k, 2) float64 open polyline along a contact piece ((H, W) bool), CONTACT_BAND_PX clear of `avoid` (the
-    occlusion regions: their boundaries are mesh constraints the slit must not cross), each end carried on to
-    the domain's outline (closed polylines) when within REACH_OUTLINE_PX of it so the cut opens there; None
-    when too little of the piece is left."""
-    if avoid.any():
-        piece = piece & ~ndimage.binary_dilation(avoid, iterations=AVOID_PX)
-    labels, n = ndimage.label(piece, structure=np.ones((3, 3), bool))
-    if n == 0:
-        return None
-    sizes = np.bincount(labels.ravel())[1:]
-    piece = labels == 1 + int(np.argmax(sizes))
-    path = _longest_path(skeletonize(piece))
-    if len(path) < MIN_CONTACT_PX:
-        return None
-    path = path[:: SLIT_STEP_PX][:-1].tolist() + [path[-1].tolist()]
-    ends = []
-    for end in (path[0], path[-1]):
-        best = None
-        for L in domain:
-            param, dist = project_to_polyline(np.asarray([end], np.float64), L)
-            i, t = int(param[0]), float(param[0] % 1.0)
-            foot = L[i] + t * (L[(i + 1) % len(L)] - L[i])
-            if dist[0] <= REACH_OUTLINE_PX and (best is None or dist[0] < best[0]):
-                best = (dist[0], foot)
-        ends.append(None if best is None or best[0] < 0.5 else best[1].tolist())
-    out = ([ends[0]] if ends[0] else []) + path + ([ends[1]] if ends[1] else [])
-    return np.asarray(out, np.float64)

@@ -21,9 +21,10 @@ from scipy import ndimage
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
 from ops.geometry.snap import snap_into
-from ops.segmentation.contacts import slit_of, thin_overlaps
+from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
+from ops.segmentation.slits import slit_of
 from ops.types import Masks, RefinedMasks, Skeleton
 
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
