@@ -67,6 +67,9 @@ class Masks:
     holes: np.ndarray  # (H, W) bool enclosed background seen through the body (not in foreground)
     n_holes: int  # connected holes, each a hole in the mesh
     warnings: list[str] = field(default_factory=list)
+    # (H, W) bool each: where the bodies of two bones that are not neighbours touch (ops.segmentation.contacts);
+    # the template is slit along them. Found whenever the occlusion is predicted (empty for painted regions).
+    contacts: list[np.ndarray] = field(default_factory=list)
 
 
 @dataclass
@@ -85,6 +88,7 @@ class RefinedMasks:
     paper: np.ndarray  # (H, W, 3) float32 paper colour model (Masks.paper)
     colour: np.ndarray  # (H, W, 3) float32 character colour unmixed from the paper (Masks.colour)
     warnings: list[str] = field(default_factory=list)
+    slits: list[np.ndarray] = field(default_factory=list)  # open polylines (n_i, 2) float64, pixels: the mesh is cut along them
 
 
 MIN_BONE_PX = 1e-6  # shorter bones (two joints at one spot) have no direction to carry an offset

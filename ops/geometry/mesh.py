@@ -29,6 +29,7 @@ class MeshResult:
     loop_vertex: list[np.ndarray]  # per input loop (n_i,) int64 mesh vertex of each loop point, -1 if dropped
     point_vertex: np.ndarray  # (p,) int64 mesh vertex of each extra point, -1 if dropped
     warnings: list[str] = field(default_factory=list)
+    slit_edges: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.int64))  # (e, 2) mesh edges on slits
 
 
 def signed_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
@@ -168,8 +169,12 @@ def triangulate_pslg(
     holes: np.ndarray | None = None,
     points: np.ndarray | None = None,
     n_domain: int = 1,
+    slits: list[np.ndarray] | None = None,
 ) -> MeshResult:
     """CDT of the domain bounded by loops[:n_domain], with the other loops as constraints and extra vertices `points`.
+
+    slits: open polylines (n_i, 2) inside the domain made of mesh edges too; MeshResult.slit_edges lists those
+    edges (Triangle may split a slit's segments), for cut_along.
 
     loops: closed polylines (n_i, 2) float64 pixels, first != last. The first
     n_domain loops outline the domain (several components, and the outlines of
@@ -181,8 +186,9 @@ def triangulate_pslg(
     warnings: list[str] = []
     loops = [np.asarray(L, dtype=np.float64).reshape(-1, 2) for L in loops]
     pts = np.zeros((0, 2)) if points is None else np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    slits = [np.asarray(L, dtype=np.float64).reshape(-1, 2) for L in (slits or [])]
     sizes = [len(L) for L in loops]
-    allp = np.concatenate(loops + [pts], axis=0)
+    allp = np.concatenate(loops + slits + [pts], axis=0)
     U, inv = _merge_points(allp)
     if len(U) < len(allp):
         warnings.append(f"merged {len(allp) - len(U)} duplicate input vertex(es)")
@@ -191,7 +197,16 @@ def triangulate_pslg(
     if len(np.unique(idx[0])) < 3:
         raise ValueError("outer boundary loop has fewer than 3 distinct vertices")
     segs = _loop_segments(idx, warnings)
-    data = {"vertices": U, "segments": segs.astype(np.int32)}
+    off = offs[-1]
+    slit_segs = []
+    for L in slits:
+        ix = inv[off:off + len(L)]
+        off += len(L)
+        slit_segs += [(a, b) for a, b in zip(ix[:-1], ix[1:]) if a != b]
+    slit_segs = np.asarray(slit_segs, np.int64).reshape(-1, 2)
+    markers = np.r_[np.ones(len(segs)), np.full(len(slit_segs), 2)].astype(np.int32)[:, None]
+    segs = np.concatenate([segs, slit_segs])
+    data = {"vertices": U, "segments": segs.astype(np.int32), "segment_markers": markers}
     if holes is not None and len(holes):
         data["holes"] = np.asarray(holes, dtype=np.float64).reshape(-1, 2)
     out = tr.triangulate(data, f"pq{min_angle:g}a{max_area:.12g}Q")
@@ -200,10 +215,68 @@ def triangulate_pslg(
     V, F, new_of_old = _clean(V, F, loops[:n_domain], warnings)
     vmap = new_of_old[: len(U)]
     loop_vertex = [vmap[ix] for ix in idx]
-    point_vertex = vmap[inv[offs[-1]:]]
+    point_vertex = vmap[inv[off:]]
     if (point_vertex < 0).any():
         warnings.append(f"{int((point_vertex < 0).sum())} extra point(s) outside the meshed region dropped")
-    return MeshResult(V, F, loop_vertex, point_vertex, warnings)
+    slit_edges = np.zeros((0, 2), np.int64)
+    if len(slit_segs):
+        out_segs = np.asarray(out["segments"], np.int64).reshape(-1, 2)
+        on_slit = np.asarray(out["segment_markers"]).ravel() == 2
+        slit_edges = new_of_old[out_segs[on_slit]]
+        slit_edges = slit_edges[(slit_edges >= 0).all(axis=1)]
+    return MeshResult(V, F, loop_vertex, point_vertex, warnings, slit_edges)
+
+
+def cut_along(V: np.ndarray, F: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Open the mesh along (e, 2) interior edges: (V', F', origin (n',) int64 vertex of V each vertex copies).
+
+    Around every vertex of a cut edge, the incident faces fall into groups that meet across edges not cut;
+    the first group keeps the vertex and each other group gets a copy. A cut that ends inside the mesh closes
+    there (its end vertex keeps one group), so a slit is a slot; one that reaches the boundary frees a flap.
+    """
+    V = np.asarray(V, np.float64)
+    F = np.asarray(F, np.int64).copy()
+    cut = {tuple(sorted(e)) for e in np.asarray(edges, np.int64).reshape(-1, 2).tolist()}
+    if not cut:
+        return V, F, np.arange(len(V))
+    incident: dict[int, list[int]] = {}
+    for v in sorted({v for e in cut for v in e}):
+        incident[v] = []
+    for f, tri in enumerate(F.tolist()):
+        for v in tri:
+            if v in incident:
+                incident[v].append(f)
+    origin = list(range(len(V)))
+    for v, faces in incident.items():
+        parent = {f: f for f in faces}
+
+        def find(f):
+            while parent[f] != f:
+                parent[f] = parent[parent[f]]
+                f = parent[f]
+            return f
+
+        by_edge: dict[tuple, int] = {}
+        for f in faces:
+            for w in F[f].tolist():
+                if w == v:
+                    continue
+                e = (min(v, w), max(v, w))
+                if e in cut:
+                    continue
+                if e in by_edge:
+                    parent[find(f)] = find(by_edge[e])
+                else:
+                    by_edge[e] = f
+        groups: dict[int, list[int]] = {}
+        for f in faces:
+            groups.setdefault(find(f), []).append(f)
+        for g in list(groups.values())[1:]:
+            copy = len(origin)
+            origin.append(v)
+            for f in g:
+                F[f][F[f] == v] = copy
+    return V[origin], F, np.asarray(origin, np.int64)
 
 
 def points_in_domain(Q: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:

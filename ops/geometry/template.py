@@ -3,7 +3,8 @@
 The front sheet (layer 0) is a constrained Delaunay triangulation of the
 character's domain (every component, paper enclosed by the body left open as
 holes; ops.segmentation.domain) whose occlusion-region boundaries are internal
-constraint loops, so every region is a union of faces. Each region r later gets a pocket (layer
+constraint loops, so every region is a union of faces. Where two bodies only touch (a contact,
+ops.segmentation.contacts) the sheet is slit along the shared stroke (mesh.cut_along). Each region r later gets a pocket (layer
 r + 1, a copy of its faces) whose sewing is decided by the cut assignment
 (ops.topology). Handles are vertices inserted at every joint and at
 fixed fractions along every bone (ops.geometry.handles); inside region r a handle sits on the front
@@ -16,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ops.geometry.handles import handle_bones, place_handles
-from ops.geometry.mesh import points_in_polygon, polygon_area, signed_areas, triangulate_pslg
+from ops.geometry.mesh import cut_along, points_in_polygon, polygon_area, signed_areas, triangulate_pslg
 from ops.types import RefinedMasks, Skeleton
 
 FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this
@@ -91,9 +92,12 @@ def build_template(
     max_area = area / FACES_PER_FOREGROUND if max_area is None else float(max_area)
     handles = place_handles(pose, skeleton, domain, refined.foreground.shape)
     warnings = list(handles.warnings)
+    slits = list(refined.slits) if mode == "optimized" else []
     res = triangulate_pslg(domain + boundaries, max_area, min_angle, holes=refined.domain_holes, points=handles.points,
-                           n_domain=len(domain))
+                           n_domain=len(domain), slits=slits)
     warnings += res.warnings
+    # copies of the slit's vertices are appended: every index into res.V keeps its meaning
+    res.V, res.F, _ = cut_along(res.V, res.F, res.slit_edges)
     if (res.point_vertex < 0).any():  # place_handles puts every handle 2 px inside the domain: a bug if it happens
         lost = [handles.names[i] for i in np.nonzero(res.point_vertex < 0)[0]]
         raise ValueError(f"handles {lost} could not be inserted as mesh vertices")

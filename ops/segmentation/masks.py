@@ -11,6 +11,7 @@ from scipy import ndimage
 
 from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
+from ops.segmentation.contacts import stroke_contacts
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
@@ -90,6 +91,7 @@ def build_masks(
     body = fg if manual_foreground is not None else fg & (seg.coverage >= 0.5)
     warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
+    contacts: list[np.ndarray] = []
     if predicted and occlusion == "drawing":
         # no pockets where bones that share a joint overlap: the mesh bends there, and a pocket at an elbow
         # or a hip opened as a dark blob when the limb moved (arm_cross: 25.2 -> 25.5 dB, Chamfer 30.2 -> 28.1)
@@ -100,6 +102,8 @@ def build_masks(
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
+    if predicted:  # painted regions are the user's word on the layers: no slits beside them
+        contacts = stroke_contacts(drawing, body, pose, skeleton)
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w
@@ -116,4 +120,5 @@ def build_masks(
     return Masks(
         foreground=fg, occlusion=regions, front_bones=fronts, coverage=seg.coverage, colour=seg.colour,
         paper=seg.paper, holes=seg.holes, n_holes=seg.n_holes, source=kind, warnings=warnings,
+        contacts=contacts,
     )

@@ -21,8 +21,10 @@ from scipy import ndimage
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
 from ops.geometry.snap import snap_into
+from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
+from ops.segmentation.slits import slit_of
 from ops.types import Masks, RefinedMasks, Skeleton
 
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
@@ -219,8 +221,13 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     regions, front_bones, per_region, w = assign_junctions(np.asarray(t_junctions, np.float64).reshape(-1, 2),
                                                            masks.occlusion, masks.front_bones, fg, pose, skeleton)
     warnings += w
+    thin = thin_overlaps(regions, masks.contacts)
     occ, fronts, bounds, juncs = [], [], [], []
     for r, (region, front, J) in enumerate(zip(regions, front_bones, per_region)):
+        if thin[r] and not len(J):
+            warnings.append(f"occlusion region {r} ({int(region.sum())} px) lies along a contact of two touching bodies: "
+                            "slit along the contact instead of a pocket")
+            continue
         n_comp = ndimage.label(region, structure=np.ones((3, 3), bool))[1]
         if n_comp > 1 and len(J):
             warnings.append(f"occlusion region {r} has {n_comp} pieces; only the largest is refined and kept")
@@ -242,6 +249,8 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         bounds.append(B)
         juncs.append(jidx)
     domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
+    taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
+    slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,
@@ -254,4 +263,5 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         paper=masks.paper,
         colour=masks.colour,
         warnings=warnings,
+        slits=slits,
     )

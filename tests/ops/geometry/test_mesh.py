@@ -4,6 +4,7 @@ import pytest
 
 from ops.geometry.mesh import (
     boundary_loops,
+    cut_along,
     face_stretch,
     points_in_polygon,
     polygon_area,
@@ -136,3 +137,41 @@ def test_face_stretch_matches_the_svd_and_survives_degenerate_faces():
     line_rest[F[1, 2]] = line_rest[F[1, 0]]  # a degenerate rest face
     out = face_stretch(line_rest, flat, F)
     assert out[0] > 1e6 and np.isinf(out[1]) and np.isfinite(out[2:]).all()
+
+
+def _edges(F):
+    """(e, 2) sorted unique edges of faces F (m, 3)."""
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
+    return np.unique(e, axis=0)
+
+
+def test_slit_is_made_of_mesh_edges_and_cut_opens_a_slot():
+    """A slit inside the square: its edges are mesh edges; cutting copies every slit vertex but the two ends."""
+    slit = np.array([[30.0, 50.0], [50.0, 50.0], [70.0, 50.0]])
+    res = triangulate_pslg([square(0, 0, 100, 4)], max_area=30.0, slits=[slit])
+    assert len(res.slit_edges) >= 2
+    mesh_edges = {tuple(e) for e in _edges(res.F).tolist()}
+    assert all(tuple(sorted(e)) in mesh_edges for e in res.slit_edges.tolist())
+    on_slit = np.unique(res.slit_edges)
+    V2, F2, origin = cut_along(res.V, res.F, res.slit_edges)
+    assert len(V2) - len(res.V) == len(on_slit) - 2  # the slit's two ends keep one vertex: a slot, not a split
+    np.testing.assert_array_equal(V2, res.V[origin])
+    assert (signed_areas(V2, F2) > 0).all()
+    # no face edge crosses the slot any more: the faces on both sides no longer share a slit edge
+    e2, counts = np.unique(np.sort(np.concatenate([F2[:, [0, 1]], F2[:, [1, 2]], F2[:, [2, 0]]]), axis=1),
+                           axis=0, return_counts=True)
+    opened = {tuple(sorted(origin[e])) for e, c in zip(e2.tolist(), counts) if c == 1}
+    assert {tuple(sorted(e)) for e in res.slit_edges.tolist()} <= opened
+    assert vertex_components(len(V2), F2).max() == 0  # still one piece around the slot
+
+
+def test_slit_from_outline_to_outline_splits_the_mesh():
+    """A slit across the whole square, outline to outline, leaves two pieces, one on each side."""
+    slit = np.array([[0.0, 50.0], [50.0, 50.0], [100.0, 50.0]])
+    res = triangulate_pslg([square(0, 0, 100, 4)], max_area=30.0, slits=[slit])
+    V2, F2, _ = cut_along(res.V, res.F, res.slit_edges)
+    label = vertex_components(len(V2), F2)
+    assert label.max() == 1
+    for c in (0, 1):
+        y = V2[label == c][:, 1]
+        assert (y <= 50.0 + 1e-9).all() or (y >= 50.0 - 1e-9).all()

@@ -1,0 +1,104 @@
+"""Tests of ops.segmentation.contacts: touching bodies found on the drawing's strokes, thin overlaps, slits."""
+from __future__ import annotations
+
+import numpy as np
+
+from ops.segmentation import contacts as contacts_mod
+from ops.segmentation.contacts import stroke_contacts, thin_overlaps
+from ops.segmentation.masks import build_masks
+from ops.segmentation.refine import refine_masks
+from ops.segmentation.slits import AVOID_PX, slit_of
+from ops.types import Skeleton
+from tests.ops.segmentation.test_masks import capsule, ink_drawing, outline
+
+SIZE = 160
+SKELETON = Skeleton(("hips", "neck", "shoulder", "elbow", "hand"), np.array([-1, 0, 1, 2, 3]))
+
+
+def hanging_arm(gap: float = 0.0):
+    """A torso with an arm hanging along its left side, `gap` px apart (0: the outlines touch).
+
+    The hand joint sits on the torso's outline, as drawn skeletons often put it.
+    Returns (drawing, pose (5, 3), foreground).
+    """
+    shape = (SIZE, SIZE)
+    torso = capsule(shape, (80, 40), (80, 125), 20)
+    x = 51 - gap
+    arm = capsule(shape, (x, 48), (x, 86), 8) | capsule(shape, (x, 86), (x, 122), 8)
+    shoulder = capsule(shape, (x, 48), (66, 40), 6)  # the arm hangs from the torso's shoulder
+    body = torso | arm | shoulder
+    ink = outline(body) | outline(torso) | outline(arm)  # the arm is drawn whole, over the shoulder
+    pose = np.array([[80, 125, 0], [80, 40, 0], [x, 48, -0.5], [x, 86, -0.5], [x + 8, 122, -0.5]], float)
+    return ink_drawing(ink), pose, body
+
+
+def test_an_arm_touching_the_torso_is_a_contact_along_the_shared_stroke():
+    drawing, pose, fg = hanging_arm()
+    pieces = stroke_contacts(drawing, fg, pose, SKELETON)
+    assert pieces
+    ys, xs = np.nonzero(np.any(pieces, axis=0))
+    assert np.abs(xs - 59.5).max() <= 4  # on the shared stroke
+    assert ys.max() - ys.min() >= 50  # most of the forearm and upper arm's length
+    # down to the hand: its joint on the torso's outline must not hand the torso's pixels to the forearm
+    assert ys.max() >= 112
+
+
+def test_the_torso_near_a_hand_on_its_outline_stays_the_torsos():
+    """Without the compartments' rule (nearest bone only), the torso's pixels near the hand go to the forearm
+    and the contact stops short of the hand."""
+    drawing, pose, fg = hanging_arm()
+    with_rule = np.any(stroke_contacts(drawing, fg, pose, SKELETON), axis=0)
+    original = contacts_mod._compartment_penalty
+    try:
+        contacts_mod._compartment_penalty = lambda inside, pose, sk: np.zeros((len(sk.bones),) + inside.shape)
+        without = stroke_contacts(drawing, fg, pose, SKELETON)
+    finally:
+        contacts_mod._compartment_penalty = original
+    lowest_without = np.nonzero(np.any(without, axis=0))[0].max() if without else 0
+    assert np.nonzero(with_rule)[0].max() > lowest_without + 5
+
+
+def test_an_arm_apart_from_the_torso_is_no_contact():
+    drawing, pose, fg = hanging_arm(gap=8.0)
+    assert stroke_contacts(drawing, fg, pose, SKELETON) == []
+
+
+def test_thin_overlap_along_a_contact_is_told_from_a_real_one():
+    shape = (SIZE, SIZE)
+    contact = np.zeros(shape, bool)
+    contact[40:120, 60] = True
+    band = np.zeros(shape, bool)
+    band[100:118, 57:64] = True  # a hand's capsule dipping into the hip along the stroke
+    wide = np.zeros(shape, bool)
+    wide[90:120, 40:80] = True  # an arm across the body: most of it far from the stroke
+    np.testing.assert_array_equal(thin_overlaps([band, wide], [contact]), [True, False])
+    np.testing.assert_array_equal(thin_overlaps([band], []), [False])
+
+
+def test_slit_of_a_contact_keeps_clear_of_regions_and_reaches_the_outline():
+    contact = np.zeros((SIZE, SIZE), bool)
+    contact[40:120, 60] = True
+    outline_loop = np.array([[20.0, 37.0], [140.0, 37.0], [140.0, 150.0], [20.0, 150.0]])
+    free = slit_of(contact, np.zeros_like(contact), [outline_loop])
+    assert free is not None
+    assert min(abs(free[0, 1] - 37.0), abs(free[-1, 1] - 37.0)) < 1e-6  # carried on to the outline
+    region = np.zeros_like(contact)
+    region[100:130, 50:70] = True
+    blocked = slit_of(contact, region, [outline_loop])
+    assert blocked[:, 1].max() < 100 - AVOID_PX + 1
+
+
+def test_thin_hip_region_is_slit_not_pocketed_unless_clicked():
+    """refine_masks drops an overlap region that only follows a contact, and keeps it when the user clicked a
+    T-junction on it."""
+    drawing, pose, _ = hanging_arm()
+    masks = build_masks(drawing, pose, SKELETON)
+    band = np.zeros_like(masks.foreground)
+    band[104:118, 57:63] = True
+    masks.occlusion, masks.front_bones = [band & masks.foreground], [np.array([3])]
+    assert masks.contacts
+    dropped = refine_masks(masks, np.zeros((0, 2)), pose, SKELETON)
+    assert dropped.occlusion == [] and dropped.slits
+    assert any("lies along a contact" in w for w in dropped.warnings)
+    clicked = refine_masks(masks, np.array([[60.0, 104.0]]), pose, SKELETON)
+    assert len(clicked.occlusion) == 1
