@@ -102,3 +102,37 @@ def test_thin_hip_region_is_slit_not_pocketed_unless_clicked():
     assert any("lies along a contact" in w for w in dropped.warnings)
     clicked = refine_masks(masks, np.array([[60.0, 104.0]]), pose, SKELETON)
     assert len(clicked.occlusion) == 1
+
+
+def _raised(pose: np.ndarray, degrees: float) -> np.ndarray:
+    """The pose with the arm (elbow, hand) turned about the shoulder by `degrees`, outward (to the left)."""
+    out = pose.copy()
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    R = np.array([[c, -s], [s, c]])
+    out[3:, :2] = (pose[3:, :2] - pose[2, :2]) @ R.T + pose[2, :2]
+    return out
+
+
+def _torso_stretch(refined, pose, other) -> float:
+    """Worst stretch of the torso's faces (well inside the torso) when the template deforms to `other`."""
+    from ops.geometry.deform import Deformer
+    from ops.geometry.mesh import face_stretch
+    from ops.geometry.topology import optimize_topology
+
+    tpl = optimize_topology(refined, pose, other, SKELETON)
+    X = Deformer(tpl.rest, tpl.faces, tpl.handles).solve(tpl.handle_targets(other)).x
+    centre = tpl.rest[tpl.faces].mean(axis=1)
+    torso = (tpl.face_layer == 0) & (centre[:, 0] > 62) & (centre[:, 1] > 75) & (centre[:, 1] < 120)
+    return float(face_stretch(tpl.rest, X, tpl.faces)[torso].max())
+
+
+def test_a_slit_arm_lifts_off_the_torso_without_stretching_it():
+    """The arm turned 60 degrees out: with the contact slit the torso keeps its shape; glued, it is dragged."""
+    drawing, pose, _ = hanging_arm()
+    masks = build_masks(drawing, pose, SKELETON)
+    masks.occlusion, masks.front_bones = [], []  # the touch alone (the rule's capsules overlap the torso here)
+    other = _raised(pose, 60.0)
+    slit = _torso_stretch(refine_masks(masks, np.zeros((0, 2)), pose, SKELETON), pose, other)
+    masks.contacts = []
+    glued = _torso_stretch(refine_masks(masks, np.zeros((0, 2)), pose, SKELETON), pose, other)
+    assert slit < 1.3 < glued
