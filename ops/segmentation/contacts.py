@@ -26,63 +26,115 @@ from skimage.morphology import skeletonize
 from ops.segmentation.bones import bone_samples, segment_distance, thick_regions
 from ops.types import Skeleton
 
+# Lengths below are for a drawing of REFERENCE_DIAG_PX diagonal, and grow with larger drawings (scale_of):
+# a photographed crayon outline 10 px wide is one stroke, not two edges with a compartment inside.
+REFERENCE_DIAG_PX = 363.0  # a 256 x 256 keyframe (362.04)
 STROKE_PX, STROKE_CONTRAST = 3, 0.12  # a stroke: darker by this (luminance) than the brightest within STROKE_PX
 SIDE_PX = 3  # a stroke pixel's sides: the pixels between strokes within this distance
 MIN_CONTACT_PX = 8  # shorter contacts are a corner touching, not a shared stroke
+ALONG_DEG = 45.0  # a contact between bodies joined around a short bone runs this close to the longer bone
+TRAP_PX = 2.0  # gaps in the strokes up to twice this wide do not join two compartments
 HOLD_SHARE = 0.25  # a bone holds the compartment between strokes that has this share of its length
-FAR_PX = 1e4  # distance added to a bone outside the compartments it holds
+MIN_CROSS_PX = 2  # ... or that it crosses for this long, when no bone holds it by share
 FOUR = ndimage.generate_binary_structure(2, 1)
 THIN_SHARE = 0.95  # an overlap region with this share of its pixels within SIDE_PX + 1 of a contact is one
 
 
 def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
                     ) -> list[np.ndarray]:
-    """(H, W) bool contacts of a (H, W, C) float32 drawing: stroke pixels inside the (H, W) bool foreground with
-    the bodies of two bones that are not neighbours on their two sides, in pieces at least MIN_CONTACT_PX long.
+    """(H, W) bool contacts of a (H, W, C) float32 drawing: stroke pixels inside the (H, W) bool foreground
+    between two compartments of the drawing, with the bodies of two bones that are not neighbours on their two
+    sides, in pieces at least MIN_CONTACT_PX long.
 
     A stroke is a pixel darker than the brightest within STROKE_PX by STROKE_CONTRAST (ink on paper, a dark
-    outline on a colour fill, pencil). The pixels between strokes go to their nearest bone. Bones joined
-    through one short bone (spine - clavicle - upper arm) meet around it: that bone's body is left out, so
-    the arm stays attached at the shoulder.
+    outline on a colour fill, pencil); the compartments are the pieces between strokes (drawn_parts). A
+    compartment's pixels go to the nearest of the bones that hold it; one no bone holds (the specks of paper
+    inside a crayon outline, an eye) is nobody's body. A stroke with the same compartment on both sides (a
+    cheek, a belly button, a fold that ends inside the body) parts nothing. Bones joined through one short
+    bone (spine - clavicle - upper arm) meet around it: that bone's body is left out, so the arm stays
+    attached at the shoulder.
     """
-    rgb = np.asarray(drawing, np.float32)[..., :3] if drawing.ndim == 3 else np.asarray(drawing, np.float32)[..., None]
-    lum = rgb.mean(axis=-1)
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * STROKE_PX + 1,) * 2)
-    stroke = foreground & ((cv2.dilate(lum, kernel) - lum) > STROKE_CONTRAST)
-    inside = foreground & ~stroke
-    ys, xs = np.nonzero(inside)
+    stroke, labels, holds = drawn_parts(drawing, foreground, pose, skeleton)
+    body = holds.any(axis=0)[labels]  # pixels of held compartments
+    ys, xs = np.nonzero(body)
     if len(xs) == 0 or len(skeleton.bones) < 2:
         return []
     p = np.stack([xs, ys], axis=1).astype(np.float64)
     dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
-    dist += _compartment_penalty(inside, pose, skeleton)[:, ys, xs]
+    dist[~holds[:, labels[ys, xs]]] = np.inf
     owner = np.argmin(dist, axis=0)
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * SIDE_PX + 1,) * 2)
+    side = int(round(SIDE_PX * scale_of(foreground.shape)))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * side + 1,) * 2)
     near = np.zeros((len(skeleton.bones),) + foreground.shape, bool)
     for bone in np.unique(owner):
         cell = np.zeros(foreground.shape, np.uint8)
         cell[ys[owner == bone], xs[owner == bone]] = 1
         near[bone] = (cv2.dilate(cell, disc) > 0) & stroke
+    # two compartments within reach: the largest and the smallest held label seen differ
+    held = np.where(body, labels, 0).astype(np.float32)
+    most = cv2.dilate(held, disc)
+    least = -cv2.dilate(np.where(body, -held, -np.float32(labels.max() + 1)), disc)
+    parts_two = stroke & (most > least)
     adjacent = skeleton.adjacent_bones()
     thick = thick_regions(foreground, pose, skeleton)
+    ends = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
     touching = np.zeros(foreground.shape, bool)
     present = [b for b in range(len(near)) if near[b].any()]
     for i in present:
         for j in present:
             if j <= i or adjacent[i, j]:
                 continue
-            both = near[i] & near[j]
+            both = near[i] & near[j] & parts_two
             between = adjacent[i] & adjacent[j]
-            if between.any():
+            if between.any():  # a join around a short bone (a waist, a shoulder), or a limb along the body?
                 both &= ~thick[between].any(axis=0)
+                longer = i if np.linalg.norm(np.diff(ends[i], axis=0)) >= np.linalg.norm(np.diff(ends[j], axis=0)) else j
+                both = _along(both, ends[longer])
             touching |= both
-    labels, n = ndimage.label(touching, structure=np.ones((3, 3), bool))
+    labels_t, n = ndimage.label(touching, structure=np.ones((3, 3), bool))
     pieces = []
     for lab in range(1, n + 1):
-        piece = labels == lab
-        if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX:
+        piece = labels_t == lab
+        if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX * scale_of(foreground.shape):
             pieces.append(piece)
     return pieces
+
+
+def drawn_parts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The drawing's strokes and the compartments between them: (H, W) bool strokes inside the (H, W) bool
+    foreground, (H, W) int64 compartment labels (4-connected pieces between strokes, 0 on strokes and off the
+    foreground) and (B, n + 1) bool which bones hold which compartment.
+
+    A bone holds a compartment when at least HOLD_SHARE of its length lies in it: a hand joint drawn on the
+    torso's outline dips the forearm's tip into the torso, but the torso's pixels near it are still the
+    torso's. It also holds one it crosses for MIN_CROSS_PX that no bone holds so (a limb hatched across).
+    """
+    rgb = np.asarray(drawing, np.float32)[..., :3] if drawing.ndim == 3 else np.asarray(drawing, np.float32)[..., None]
+    lum = rgb.mean(axis=-1)
+    scale = scale_of(foreground.shape)
+    reach = int(round(STROKE_PX * scale))
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2)
+    stroke = foreground & ((cv2.dilate(lum, kernel) - lum) > STROKE_CONTRAST)
+    labels, n = _trapped_ball(foreground & ~stroke, TRAP_PX * scale)
+    points, owner = bone_samples(pose, skeleton, step=1.0)
+    h, w = foreground.shape
+    xy = np.round(points).astype(np.int64)
+    ok = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)
+    comp = np.zeros(len(points), np.int64)
+    comp[ok] = labels[xy[ok, 1], xy[ok, 0]]
+    counts = np.zeros((len(skeleton.bones), n + 1))
+    np.add.at(counts, (owner, comp), 1.0)
+    strong = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1.0) >= HOLD_SHARE
+    # a limb hatched across into short compartments holds each it crosses that no bone holds strongly
+    holds = strong | ((counts >= MIN_CROSS_PX) & ~strong.any(axis=0))
+    holds[:, 0] = False
+    return stroke, labels.astype(np.int64), holds
+
+
+def scale_of(shape: tuple[int, int]) -> float:
+    """How many times a drawing of (H, W) pixels is larger than the reference (at least 1)."""
+    return max(1.0, float(np.hypot(*shape[:2])) / REFERENCE_DIAG_PX)
 
 
 def thin_overlaps(regions: list[np.ndarray], contacts: list[np.ndarray]) -> np.ndarray:
@@ -90,34 +142,41 @@ def thin_overlaps(regions: list[np.ndarray], contacts: list[np.ndarray]) -> np.n
     pixels within SIDE_PX + 1 of one (the band a contact's two sides span)."""
     if not regions or not contacts:
         return np.zeros(len(regions), bool)
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * SIDE_PX + 3,) * 2)
+    side = int(round(SIDE_PX * scale_of(regions[0].shape)))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * side + 3,) * 2)
     band = cv2.dilate(np.any(contacts, axis=0).astype(np.uint8), disc) > 0
     return np.array([(r & band).sum() >= THIN_SHARE * max(int(r.sum()), 1) for r in regions], bool)
 
 
-def _compartment_penalty(inside: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(B, H, W) float64 added distance: 0 inside the compartments a bone holds, FAR elsewhere (0 everywhere
-    for a compartment that holds no bone).
+def _along(mask: np.ndarray, bone: np.ndarray) -> np.ndarray:
+    """The pieces of a (H, W) bool mask that run along a bone ((2, 2) ends, pixels): their principal direction
+    within ALONG_DEG of the bone's. Two bodies joined around a short bone meet across the longer one (the
+    waistband between a torso and a hip bone); a limb lying along the body touches it lengthwise."""
+    d = bone[1] - bone[0]
+    if np.linalg.norm(d) < 1e-9:
+        return np.zeros_like(mask)
+    labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
+    keep = np.zeros(n + 1, bool)
+    for lab in range(1, n + 1):
+        ys, xs = np.nonzero(labels == lab)
+        if len(xs) < 3:
+            continue
+        pts = np.stack([xs, ys], axis=1).astype(np.float64)
+        direction = np.linalg.svd(pts - pts.mean(axis=0), full_matrices=False)[2][0]
+        keep[lab] = abs(direction @ d) / np.linalg.norm(d) >= np.cos(np.radians(ALONG_DEG))
+    return keep[labels]
 
-    A compartment is a 4-connected piece of the (H, W) bool pixels between strokes. A bone holds one when at
-    least HOLD_SHARE of its length lies in it: a hand joint drawn on the torso's outline dips the forearm's
-    tip into the torso, but the torso's pixels near it still belong to the torso's bones.
-    """
-    labels, n = ndimage.label(inside, structure=FOUR)
-    points, owner = bone_samples(pose, skeleton, step=1.0)
-    h, w = inside.shape
-    xy = np.round(points).astype(np.int64)
-    ok = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)
-    comp = np.zeros(len(points), np.int64)
-    comp[ok] = labels[xy[ok, 1], xy[ok, 0]]
-    B = len(skeleton.bones)
-    counts = np.zeros((B, n + 1))
-    np.add.at(counts, (owner, comp), 1.0)
-    holds = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1.0) >= HOLD_SHARE
-    holds[:, 0] = False
-    held = holds.any(axis=0)
-    allowed = holds | ~held[None]  # (B, n + 1): compartments nobody holds are open to every bone
-    return np.where(allowed[:, labels], 0.0, FAR_PX)
+
+def _trapped_ball(free: np.ndarray, radius: float) -> tuple[np.ndarray, int]:
+    """(H, W) int64 compartments of the (H, W) bool free pixels with gaps in the strokes narrower than 2 radius
+    closed (trapped-ball filling: the pieces a ball of that radius cannot leave, each free pixel then joining
+    the nearest piece), and their count."""
+    core = ndimage.distance_transform_edt(free) > radius
+    labels, n = ndimage.label(core, structure=FOUR)
+    if n == 0:
+        return np.where(free, 0, 0).astype(np.int64), 0
+    _, (iy, ix) = ndimage.distance_transform_edt(~core, return_indices=True)
+    return np.where(free, labels[iy, ix], 0).astype(np.int64), n
 
 
 def longest_path(pixels: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path
 
 AVOID_PX = 3  # a slit keeps this far from the occlusion regions' boundaries (mesh constraints)
 SLIT_STEP_PX = 3  # spacing of a slit's polyline vertices along the contact
-REACH_OUTLINE_PX = 6.0  # a slit's end this close to the outline is carried on to it
+REACH_OUTLINE_PX = 10.0  # a slit's end this close to the outline is carried on to it (across the notch where two bodies part)
 
 
 def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> np.ndarray | None:

@@ -44,16 +44,23 @@ def test_an_arm_touching_the_torso_is_a_contact_along_the_shared_stroke():
 
 
 def test_the_torso_near_a_hand_on_its_outline_stays_the_torsos():
-    """Without the compartments' rule (nearest bone only), the torso's pixels near the hand go to the forearm
-    and the contact stops short of the hand."""
+    """Without the compartments' rule (every bone holds every compartment: the nearest bone only), the torso's
+    pixels near the hand go to the forearm and the contact stops short of the hand."""
     drawing, pose, fg = hanging_arm()
     with_rule = np.any(stroke_contacts(drawing, fg, pose, SKELETON), axis=0)
-    original = contacts_mod._compartment_penalty
+    original = contacts_mod.drawn_parts
+
+    def every_bone_holds_all(*args):
+        stroke, labels, holds = original(*args)
+        holds = np.ones_like(holds)
+        holds[:, 0] = False
+        return stroke, labels, holds
+
     try:
-        contacts_mod._compartment_penalty = lambda inside, pose, sk: np.zeros((len(sk.bones),) + inside.shape)
+        contacts_mod.drawn_parts = every_bone_holds_all
         without = stroke_contacts(drawing, fg, pose, SKELETON)
     finally:
-        contacts_mod._compartment_penalty = original
+        contacts_mod.drawn_parts = original
     lowest_without = np.nonzero(np.any(without, axis=0))[0].max() if without else 0
     assert np.nonzero(with_rule)[0].max() > lowest_without + 5
 
@@ -129,6 +136,7 @@ def _torso_stretch(refined, pose, other) -> float:
 def test_a_slit_arm_lifts_off_the_torso_without_stretching_it():
     """The arm turned 60 degrees out: with the contact slit the torso keeps its shape; glued, it is dragged."""
     drawing, pose, _ = hanging_arm()
+    pose[4, 0] = 51.0  # the hand's joint inside the hand: a handle on the torso's side would hold it there
     masks = build_masks(drawing, pose, SKELETON)
     masks.occlusion, masks.front_bones = [], []  # the touch alone (the rule's capsules overlap the torso here)
     other = _raised(pose, 60.0)
@@ -136,3 +144,36 @@ def test_a_slit_arm_lifts_off_the_torso_without_stretching_it():
     masks.contacts = []
     glued = _torso_stretch(refine_masks(masks, np.zeros((0, 2)), pose, SKELETON), pose, other)
     assert slit < 1.3 < glued
+
+
+def test_a_stroke_inside_one_compartment_parts_nothing():
+    """A fold drawn down a skirt between the two thighs, ending inside it, has the skirt on both sides: no
+    contact, although the thighs' bones (not neighbours) are the nearest on its two sides."""
+    shape = (SIZE, SIZE)
+    skirt = capsule(shape, (80, 60), (80, 120), 30)
+    fold = capsule(shape, (80, 75), (80, 112), 1.0)
+    skeleton = Skeleton(("pelvis", "l_hip", "l_knee", "r_hip", "r_knee"), np.array([-1, 0, 1, 0, 3]))
+    pose = np.array([[80, 62, 0], [68, 70, 0], [68, 118, 0], [92, 70, 0], [92, 118, 0]], float)
+    drawing = ink_drawing(outline(skirt) | fold)
+    assert stroke_contacts(drawing, skirt, pose, skeleton) == []
+    # the fold carried through from waist to hem parts the skirt in two: the thighs touch along it
+    drawing = ink_drawing(outline(skirt) | capsule(shape, (80, 20), (80, 155), 1.0))
+    assert stroke_contacts(drawing, skirt, pose, skeleton)
+
+
+def test_a_thick_crayon_outline_is_one_stroke_on_a_large_drawing(monkeypatch):
+    """A photographed drawing 600 px high with an outline 14 px wide: the outline is one stroke, not two edges
+    with a ring of body between them, so the forearm whose hand reaches the outline touches nothing. At the
+    reference scale the ring's inside is a compartment of its own and the forearm, crossing it, holds it."""
+    shape = (600, 600)
+    body = capsule(shape, (300, 150), (300, 450), 150)
+    inner = capsule(shape, (300, 150), (300, 450), 136)
+    skeleton = Skeleton(("pelvis", "neck", "shoulder", "elbow", "hand"), np.array([-1, 0, 1, 2, 3]))
+    pose = np.array([[300, 450, 0], [300, 150, 0], [230, 180, 0], [210, 300, 0], [152, 330, 0]], float)
+    rng = np.random.default_rng(0)
+    drawing = np.broadcast_to(np.float32(0.94), shape + (3,)).copy()
+    drawing += rng.normal(0, 0.01, drawing.shape).astype(np.float32)
+    drawing[body & ~inner] = (0.25, 0.2, 0.6)  # a purple crayon outline
+    assert stroke_contacts(drawing, body, pose, skeleton) == []
+    monkeypatch.setattr(contacts_mod, "scale_of", lambda shape: 1.0)
+    assert stroke_contacts(drawing, body, pose, skeleton)
