@@ -21,6 +21,7 @@ from ops.geometry.mesh import cut_along, points_in_polygon, polygon_area, signed
 from ops.types import RefinedMasks, Skeleton
 
 FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this
+FLAT_AREA_PX2 = 1e-6  # a face smaller than this is flat: Triangle's output along a constraint at a hair's angle
 
 
 @dataclass
@@ -75,6 +76,11 @@ def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], wa
     return region
 
 
+def _degenerate(res) -> bool:
+    """Whether a triangulation (mesh.MeshResult) has flat faces (area under FLAT_AREA_PX2)."""
+    return bool(len(res.F)) and float(signed_areas(res.V, res.F).min()) < FLAT_AREA_PX2
+
+
 def build_template(
     refined: RefinedMasks,
     pose: np.ndarray,
@@ -93,8 +99,22 @@ def build_template(
     handles = place_handles(pose, skeleton, domain, refined.foreground.shape)
     warnings = list(handles.warnings)
     slits = list(refined.slits) if mode == "optimized" else []
-    res = triangulate_pslg(domain + boundaries, max_area, min_angle, holes=refined.domain_holes, points=handles.points,
-                           n_domain=len(domain), slits=slits)
+
+    def mesh(cuts):
+        """CDT of the domain with the regions' loops, the handles and the slits `cuts`."""
+        return triangulate_pslg(domain + boundaries, max_area, min_angle, holes=refined.domain_holes,
+                                points=handles.points, n_domain=len(domain), slits=cuts)
+
+    res = mesh(slits)
+    if slits and _degenerate(res):
+        # a slit meeting the outline or a region's loop at a hair's angle can make Triangle emit flat faces,
+        # which no deformation can start from: mesh without the slits that do it, and say so
+        kept = [c for c in slits if not _degenerate(mesh([c]))]
+        res = mesh(kept)
+        if _degenerate(res):
+            kept, res = [], mesh([])
+        warnings.append(f"{len(slits) - len(kept)} contact slit(s) left out: the mesh along them came out flat "
+                        "(the touching parts stay joined there)")
     warnings += res.warnings
     # copies of the slit's vertices are appended: every index into res.V keeps its meaning
     res.V, res.F, _ = cut_along(res.V, res.F, res.slit_edges)
