@@ -5,14 +5,15 @@ parts by a stroke, the foreground merges them, and a mesh glued across the strok
 along when the arm lifts (hand_on_hip). The skeleton rule (ops.segmentation.occlusion) sees only bodies
 that overlap. Here the pixels between strokes go to bones (the nearest bone among those that hold their
 compartment of the drawing), and a stroke with the bodies of two non-adjacent bones on its two sides is a
-contact. The template is slit along it (ops.segmentation.slits, ops.geometry.mesh.cut_along), so the parts part when
-the limb moves and stay sewn where they are one body.
+contact. The template is slit along it (ops.segmentation.slits, ops.geometry.mesh.cut_along), so the parts
+part when the limb moves and stay sewn where they are one body.
 
 An overlap region no thicker than the contact's band (thin_overlaps) is the same touch seen by the
 skeleton rule: the hand's capsule dips into the hip. It hides nothing worth a pocket, and its pocket would
 glue the hand to the hip again, so the slit replaces it.
-Bones joined through one short bone (spine - clavicle - upper arm) meet around it: that bone's body is left
-out of their contact, as of their overlap.
+Bones joined through one short bone (spine - clavicle - upper arm, torso - hip bone) meet around it: that
+bone's body is left out of their contact, as of their overlap, and they touch only along the longer of the
+two (an arm along the body), never across it (a waistband is where a torso and its hips are one body).
 """
 from __future__ import annotations
 
