@@ -105,16 +105,24 @@ def build_template(
         return triangulate_pslg(domain + boundaries, max_area, min_angle, holes=refined.domain_holes,
                                 points=handles.points, n_domain=len(domain), slits=cuts)
 
-    res = mesh(slits)
-    if slits and _degenerate(res):
+    def attempt(cuts):
+        """The mesh with the slits `cuts`, or None when Triangle fails on them or emits flat faces."""
+        try:
+            res = mesh(cuts)
+        except RuntimeError:  # Triangle: "invalid geometry on input" (slits crossing each other or a loop)
+            return None
+        return None if _degenerate(res) else res
+
+    res = attempt(slits) if slits else mesh([])
+    if res is None:
         # a slit meeting the outline or a region's loop at a hair's angle can make Triangle emit flat faces,
-        # which no deformation can start from: mesh without the slits that do it, and say so
-        kept = [c for c in slits if not _degenerate(mesh([c]))]
-        res = mesh(kept)
-        if _degenerate(res):
+        # which no deformation can start from, or fail outright: mesh without the slits that do it, say so
+        kept = [c for c in slits if attempt([c]) is not None]
+        res = attempt(kept) if kept else None
+        if res is None:
             kept, res = [], mesh([])
-        warnings.append(f"{len(slits) - len(kept)} contact slit(s) left out: the mesh along them came out flat "
-                        "(the touching parts stay joined there)")
+        warnings.append(f"{len(slits) - len(kept)} contact slit(s) left out: the mesh along them failed or came "
+                        "out flat (the touching parts stay joined there)")
     warnings += res.warnings
     # copies of the slit's vertices are appended: every index into res.V keeps its meaning
     res.V, res.F, _ = cut_along(res.V, res.F, res.slit_edges)
