@@ -266,6 +266,41 @@ def _one_line(text: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """The `inbetween` command; argv None: this process's own command line, which ends when main returns."""
+    code = _main(argv)
+    if argv is None:
+        leave_past_workers(code)
+    return code
+
+
+def leave_past_workers(code: int, wait_s: float = 0.5) -> None:
+    """Exit with `code` now, without finalizing the interpreter, if a stage still computes on a work-ahead
+    thread (assets/ahead.py) after `wait_s` seconds.
+
+    After another stage failed, that thread may be inside native code (torch, Triangle, OpenCV); finalizing
+    the interpreter under it aborted the process now and then ("terminate called without an active
+    exception", killed by SIGABRT instead of exiting 1). What was said is flushed first, and the store
+    already discards what that stage would write.
+    """
+    import logging
+    import threading
+
+    deadline = time.monotonic() + wait_s
+    for t in threading.enumerate():
+        if t.name.startswith("inbetween-ahead"):
+            t.join(max(0.0, deadline - time.monotonic()))
+    if not any(t.name.startswith("inbetween-ahead") and t.is_alive() for t in threading.enumerate()):
+        return
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(code)
+
+
+def _main(argv: list[str] | None) -> int:
     args = _parser().parse_args(argv)
     from .runs import HomeDamaged, StageFailed, warnings_to_log
 

@@ -96,3 +96,29 @@ def test_a_failing_stage_is_one_line_with_the_log(warm, tmp_path):
     assert [line.split()[-1] for line in done.stdout.splitlines()[2:3]] == ["failed"]
     errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and "rife_matrix" in errors[0], done.stderr
+
+
+def test_the_process_leaves_past_a_stage_still_computing_ahead():
+    """A failed run returns while a work-ahead thread may still be inside native code; the command leaves
+    without finalizing the interpreter under it (which aborted with SIGABRT now and then): the exit code is
+    the run's, what was said is flushed, and the thread is not waited for."""
+    import subprocess
+    import sys
+    import time
+
+    code = (
+        "import sys, threading, time\n"
+        "from assets.cli import leave_past_workers\n"
+        "threading.Thread(target=time.sleep, args=(30,), name='inbetween-ahead-0', daemon=True).start()\n"
+        "print('error: said before leaving', end='')\n"
+        "leave_past_workers(3, wait_s=0.1)\n"
+        "sys.exit(0)\n"
+    )
+    t0 = time.monotonic()
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=20)
+    assert done.returncode == 3 and done.stdout == "error: said before leaving"
+    assert time.monotonic() - t0 < 15
+    # no thread computing ahead: the function returns and the interpreter ends as usual
+    quiet = subprocess.run([sys.executable, "-c", "from assets.cli import leave_past_workers\n"
+                            "leave_past_workers(3)\nprint('went on')"], capture_output=True, text=True, timeout=20)
+    assert quiet.returncode == 0 and quiet.stdout.strip() == "went on"
