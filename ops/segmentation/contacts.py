@@ -77,7 +77,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     least = -cv2.dilate(np.where(body, -held, -np.float32(labels.max() + 1)), disc)
     parts_two = stroke & (most > least)
     adjacent = skeleton.adjacent_bones()
-    thick = thick_regions(foreground, pose, skeleton)
+    thick = None  # the bodies' regions, only for bones joined around a short bone
     ends = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
     touching = np.zeros(foreground.shape, bool)
     present = [b for b in range(len(near)) if near[b].any()]
@@ -88,6 +88,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
             both = near[i] & near[j] & parts_two
             between = adjacent[i] & adjacent[j]
             if between.any():  # a join around a short bone (a waist, a shoulder), or a limb along the body?
+                thick = thick_regions(foreground, pose, skeleton) if thick is None else thick
                 both &= ~thick[between].any(axis=0)
                 longer = i if np.linalg.norm(np.diff(ends[i], axis=0)) >= np.linalg.norm(np.diff(ends[j], axis=0)) else j
                 both = _along(both, ends[longer])
