@@ -5,7 +5,9 @@ bounded biharmonic depth averaged over the layer) shows the drawing: its
 colour unmixed from the paper, with the drawing's coverage as alpha, so soft
 edges and outlines keep their drawn width. A hidden face shows the other
 keyframe where, deformed into the other keyframe's pose, it is visible there,
-and is inpainted otherwise.
+and is inpainted otherwise; where it lands on the other keyframe's paper it is
+as transparent as the paper (a pocket is the whole near limb's shape, the far
+limb behind it is often thinner).
 """
 from __future__ import annotations
 
@@ -114,11 +116,16 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     seen = cv2.remap(visible.astype(np.float32), qx, qy, borderValue=0, **remap) >= 0.5
     # per pixel as well as per face: a source-1 face's samples that the other keyframe hides are inpainted too
     ok = covered & (face_source[np.maximum(ids, 0)] == 1) & seen
-    holes = covered & ~ok
+    # a hidden point the deformation carries onto the other keyframe's paper is no part of the character
+    # there: it is as transparent as the other drawing's coverage (the pocket's edge past a smaller far limb)
+    inside_other = np.asarray(other.foreground, dtype=np.float32)
+    cov = np.clip(cv2.remap(np.asarray(other.coverage, np.float32), qx, qy, borderValue=0, **remap), 0.0, 1.0)
+    absent = covered & (cv2.remap(inside_other, qx, qy, borderValue=0, **remap) < 0.5)
+    holes = covered & ~ok & ~absent
     context = np.where(ok[..., None], sampled, texture[..., :3])
     filled = np.asarray(inpainter(context.astype(np.float32), holes), dtype=np.float32)
-    back[..., :3] = np.where(ok[..., None], sampled, filled)
-    back[..., 3] = 1.0
+    back[..., :3] = np.where((ok | absent)[..., None], sampled, filled)
+    back[..., 3] = np.where(ok | absent, cov, 1.0)
     back[~covered] = 0.0
     back_inpainted[:] = holes
     if covered.any():

@@ -162,6 +162,31 @@ def test_texture_template_sources_and_back_texture():
     assert np.isfinite(tt.back_texture).all() and tt.back_texture.min() >= 0 and tt.back_texture.max() <= 1
 
 
+def test_pocket_carried_onto_the_other_keyframes_paper_is_transparent():
+    """A pocket larger than what hides behind it (a near leg's whole outline over a thinner far leg): where the
+    deformation carries it onto the other keyframe's paper it is no character, not an inpainted opaque edge."""
+    size = 64
+    tpl = make_template(size)
+    drawing, fg, other, other_fg, _ = _shot(size)
+    other_fg = other_fg.copy()
+    other_fg[:, 38:] = False  # the other keyframe ends at x = 38: rest x >= 33 lands on its paper
+    other_masks = refined(other_fg, other)
+    tt = texture_template(tpl, depth_weights(tpl), refined(fg, drawing), other_masks, FLAT, tpl.rest + SHIFT,
+                          OpenCVInpainter())
+    pockets = np.nonzero(tpl.face_layer > 0)[0]
+    covered = rasterize_ids(tpl.rest, tpl.faces, pockets, (size, size)) >= 0
+    on_paper = covered.copy()
+    on_paper[:, :34] = False
+    on_drawing = covered.copy()
+    on_drawing[:, 31:] = False
+    assert on_paper.sum() > 50 and on_drawing.sum() > 50
+    assert (tt.back_texture[on_paper, 3] == 0).all() and not tt.back_inpainted[on_paper].any()
+    assert (tt.back_texture[on_drawing, 3] == 1).all()
+    assert np.abs(tt.back_texture[on_drawing][:, :3] - drawing[on_drawing]).max() < 1e-5
+    # the fringe between takes the other drawing's coverage (here its hard edge, bilinearly sampled)
+    assert 0 < tt.back_texture[covered & ~on_paper & ~on_drawing, 3].max() <= 1
+
+
 def test_fully_occluded_pockets_are_inpainted_from_context():
     size = 64
     tpl = make_template(size)
