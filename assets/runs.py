@@ -678,7 +678,10 @@ def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Set
     for d in shots:  # register up front, one writer at a time
         register(d)
     reports, errors = {}, []
-    with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=mp.get_context("spawn")) as pool:
+    # one fresh process per shot: a worker that ran shot after shot kept every one's leftovers (allocator
+    # arenas, caches), and its peak RSS grew with the batch (1.77 GB over the 12 samples, one shot 1.2 GB)
+    with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=mp.get_context("spawn"),
+                             max_tasks_per_child=1) as pool:
         futures = {pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings, verbose,
                                executor): d
                    for d in shots}

@@ -7,6 +7,12 @@ one cv2.remap each (premultiplied alpha, so edges do not darken); the s x s
 samples are then averaged, which anti-aliases the edges between faces and
 layers while the template at rest reproduces its texture exactly.
 
+Where the front sheet lies over itself (a slit limb moved across the body,
+a cut region over the sheet), a soft edge on top shows the sheet beneath it
+rather than the paper: a pale watercolour hand over the skirt stays a hand
+over the skirt. Pockets never show through, so at rest the drawing's own
+soft edges stay exact.
+
 Supersampling convention: original pixel i covers [i - 0.5, i + 0.5) (the
 origin is the top-left pixel's centre), so sample j of the s-times grid has
 its centre at original coordinate (j + 0.5) / s - 0.5, i.e. a point x maps
@@ -18,6 +24,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from scipy.sparse import coo_matrix
 
 from ops.appearance.layers import layer_depth, layer_groups
 from ops.geometry.mesh import face_stretch
@@ -58,6 +65,46 @@ def rasterize_ids(X: np.ndarray, faces: np.ndarray, order: np.ndarray, shape: tu
     for f, tri in zip(order.tolist(), tris):
         cv2.fillConvexPoly(ids, tri, f, lineType=cv2.LINE_8, shift=SHIFT)
     return ids
+
+
+def rasterize_under(X: np.ndarray, faces: np.ndarray, order: np.ndarray, shape: tuple[int, int], scale: int,
+                    where: np.ndarray) -> np.ndarray:
+    """What lies beneath the top face (as rasterize_ids paints it) at the (H*s, W*s) bool samples `where`:
+    (H*s, W*s) int32 face id, -1 for none and off `where`. A face painted over a neighbour (one sharing a
+    vertex: they meet on an edge, the fill is inclusive) keeps what was under it; over any other face it puts
+    that face under. Only faces whose box holds a sample of `where` are painted: the others change nothing
+    there."""
+    h, w = shape
+    top = np.full((h * scale, w * scale), -1, dtype=np.int32)
+    under = top.copy()
+    order = np.asarray(order, dtype=np.int64)
+    if order.size == 0 or not where.any():
+        return under
+    faces = np.asarray(faces)
+    pts = np.round(to_supersampled(X, scale) * (1 << SHIFT)).astype(np.int32)
+    tris = pts[faces[order]]
+    lo = np.clip((tris.min(axis=1) >> SHIFT) - 1, 0, [w * scale - 1, h * scale - 1])
+    hi = np.clip((tris.max(axis=1) >> SHIFT) + 2, 1, [w * scale, h * scale])
+    count = cv2.integral(where.astype(np.uint8))  # (H*s + 1, W*s + 1) samples of `where` above-left
+    inside = (count[hi[:, 1], hi[:, 0]] - count[lo[:, 1], hi[:, 0]] - count[hi[:, 1], lo[:, 0]]
+              + count[lo[:, 1], lo[:, 0]]) > 0
+    inc = coo_matrix((np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel()))).tocsr()
+    touch = (inc @ inc.T).tocsr()
+    mark = np.zeros(len(faces) + 1, bool)  # mark[-1] (empty) stays False
+    for k in np.nonzero(inside)[0].tolist():
+        f, (x0, y0), (x1, y1) = int(order[k]), lo[k].tolist(), hi[k].tolist()
+        patch = np.zeros((y1 - y0, x1 - x0), np.uint8)
+        cv2.fillConvexPoly(patch, tris[k] - np.array([x0 << SHIFT, y0 << SHIFT], np.int32), 1,
+                           lineType=cv2.LINE_8, shift=SHIFT)
+        m = patch.astype(bool) & where[y0:y1, x0:x1]
+        t, u = top[y0:y1, x0:x1], under[y0:y1, x0:x1]
+        was = t[m]
+        nbrs = touch.indices[touch.indptr[f]:touch.indptr[f + 1]]
+        mark[nbrs] = True
+        u[m] = np.where(mark[was], u[m], was)
+        mark[nbrs] = False
+        t[m] = f
+    return under
 
 
 def affine_maps(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -147,11 +194,35 @@ class Renderer:
         self.front = premultiply(textured.texture)
         self.back = premultiply(textured.back_texture)
         self.groups = layer_groups(textured.template)
+        tpl = textured.template
+        used = np.unique(tpl.faces[tpl.face_layer == 0])
+        # a front sheet slit along a contact or cut around a region has vertices twice at one rest point;
+        # only then can it lie over itself without folding
+        self.slit = len(np.unique(np.round(tpl.rest[used], 6), axis=0)) < len(used)
 
     def _samples(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], s: int):
         """Premultiplied RGBA of every supersample (H*s, W*s, 4), the back map, hidden-face mask and face ids behind it."""
         tpl = self.textured.template
-        ids = rasterize_ids(X, tpl.faces, depth_order(self.textured, pose, self.groups), shape, s)
+        order = depth_order(self.textured, pose, self.groups)
+        ids = rasterize_ids(X, tpl.faces, order, shape, s)
+        pre, map_x, map_y, hidden = self._sample_ids(ids, X, s)
+        if not self.slit:
+            return pre, map_x, map_y, hidden, ids
+        # the front sheet over itself (a slit limb across the body): a soft edge on top shows the sheet
+        # beneath it, not the paper; pockets stay out, so at rest nothing shows through the drawing's edges
+        sheet = tpl.face_layer == 0
+        soft = (ids >= 0) & sheet.take(np.maximum(ids, 0)) & (pre[..., 3] < 0.999)
+        under = rasterize_under(X, tpl.faces, order, shape, s, soft)
+        fold = soft & (under >= 0) & sheet.take(np.maximum(under, 0))
+        if fold.any():
+            below, bx, by, _ = self._sample_ids(np.where(fold, under, -1), X, s)
+            # a neighbour sharing the sample on an edge reads the same drawing point: no fold there
+            apart = np.hypot(bx - map_x, by - map_y) > 1.0
+            pre += (1.0 - pre[..., 3:4]) * np.where(apart[..., None], below, 0.0)
+        return pre, map_x, map_y, hidden, ids
+
+    def _sample_ids(self, ids: np.ndarray, X: np.ndarray, s: int):
+        tpl = self.textured.template
         map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
         hidden = (ids >= 0) & (self.textured.face_source.take(np.maximum(ids, 0)) > 0)  # the back texture's faces
         # each texture is sampled only where it is selected (the other map points off-texture, giving 0),
@@ -159,7 +230,7 @@ class Renderer:
         off = np.float32(-1e4)
         pre = cv2.remap(self.front, np.where(hidden, off, map_x), map_y, **_REMAP)
         pre += cv2.remap(self.back, np.where(hidden, map_x, off), map_y, **_REMAP)
-        return pre, map_x, map_y, hidden, ids
+        return pre, map_x, map_y, hidden
 
     def frame(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
               supersample: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

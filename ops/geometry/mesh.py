@@ -162,6 +162,24 @@ def _loop_segments(idx: list[np.ndarray], warnings: list[str]) -> np.ndarray:
     return S[np.sort(keep)]
 
 
+def _with_slit_ends(loops: list[np.ndarray], slits: list[np.ndarray], tol: float = 0.05) -> list[np.ndarray]:
+    """The loops with every slit end that lies on one of their edges (within tol px, off its vertices) made a
+    vertex of that loop. Triangle would otherwise split the edge at the end itself, and a slit meeting the
+    outline at a hair's angle there made it fail ("topological inconsistency after splitting a segment"),
+    once by a segmentation fault that no exception catches."""
+    loops = list(loops)
+    for end in [L[i] for L in slits if len(L) >= 2 for i in (0, -1)]:
+        for k, L in enumerate(loops):
+            if len(L) < 2 or np.linalg.norm(L - end, axis=1).min() <= tol:
+                continue
+            param, dist = project_to_polyline(end[None], L)
+            if dist[0] <= tol:
+                i = int(param[0])
+                loops[k] = np.insert(L, i + 1, end, axis=0)
+                break
+    return loops
+
+
 def triangulate_pslg(
     loops: list[np.ndarray],
     max_area: float,
@@ -187,11 +205,15 @@ def triangulate_pslg(
     loops = [np.asarray(L, dtype=np.float64).reshape(-1, 2) for L in loops]
     pts = np.zeros((0, 2)) if points is None else np.asarray(points, dtype=np.float64).reshape(-1, 2)
     slits = [np.asarray(L, dtype=np.float64).reshape(-1, 2) for L in (slits or [])]
+    if slits:
+        loops = _with_slit_ends(loops, slits)
     sizes = [len(L) for L in loops]
     allp = np.concatenate(loops + slits + [pts], axis=0)
     U, inv = _merge_points(allp)
-    if len(U) < len(allp):
-        warnings.append(f"merged {len(allp) - len(U)} duplicate input vertex(es)")
+    given = np.concatenate(loops + [pts], axis=0)  # slits end on loop vertices on purpose
+    merged = len(given) - len(_merge_points(given)[0])
+    if merged:
+        warnings.append(f"merged {merged} duplicate input vertex(es)")
     offs = np.cumsum([0] + sizes)
     idx = [inv[offs[i]:offs[i + 1]] for i in range(len(loops))]
     if len(np.unique(idx[0])) < 3:

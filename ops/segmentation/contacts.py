@@ -8,6 +8,9 @@ compartment of the drawing), and a stroke with the bodies of two non-adjacent bo
 contact. The template is slit along it (ops.segmentation.slits, ops.geometry.mesh.cut_along), so the parts
 part when the limb moves and stay sewn where they are one body.
 
+Paint without ink (watercolour) has no stroke between a hand and the skirt it hangs beside, only a few
+pixels of paper that the foreground closed over; that glued paper is a contact's stroke too.
+
 An overlap region no thicker than the contact's band (thin_overlaps) is the same touch seen by the
 skeleton rule: the hand's capsule dips into the hip. It hides nothing worth a pocket, and its pocket would
 glue the hand to the hip again, so the slit replaces it.
@@ -32,6 +35,7 @@ from ops.types import Skeleton
 REFERENCE_DIAG_PX = 363.0  # a 256 x 256 keyframe (362.04)
 STROKE_PX, STROKE_CONTRAST = 3, 0.12  # a stroke: darker by this (luminance) than the brightest within STROKE_PX
 SIDE_PX = 3  # a stroke pixel's sides: the pixels between strokes within this distance
+RIM_PX = 2  # glued paper this near the paper outside is the outline's soft rim, not paper between bodies
 MIN_CONTACT_PX = 8  # shorter contacts are a corner touching, not a shared stroke
 ALONG_DEG = 45.0  # a contact between bodies joined around a short bone runs this close to the longer bone
 TRAP_PX = 2.0  # gaps in the strokes up to twice this wide do not join two compartments
@@ -41,11 +45,14 @@ FOUR = ndimage.generate_binary_structure(2, 1)
 THIN_SHARE = 0.95  # an overlap region with this share of its pixels within SIDE_PX + 1 of a contact is one
 
 
-def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
-                    ) -> list[np.ndarray]:
+def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                    glued: np.ndarray | None = None) -> list[np.ndarray]:
     """(H, W) bool contacts of a (H, W, C) float32 drawing: stroke pixels inside the (H, W) bool foreground
     between two compartments of the drawing, with the bodies of two bones that are not neighbours on their two
     sides, in pieces at least MIN_CONTACT_PX long.
+
+    glued: (H, W) bool paper the mesh's foreground closed over (a watercolour hand a few pixels beside the
+    skirt, no ink between). It parts bodies as a stroke does.
 
     A stroke is a pixel darker than the brightest within STROKE_PX by STROKE_CONTRAST (ink on paper, a dark
     outline on a colour fill, pencil); the compartments are the pieces between strokes (drawn_parts). A
@@ -64,7 +71,8 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
     dist[~holds[:, labels[ys, xs]]] = np.inf
     owner = np.argmin(dist, axis=0)
-    side = int(round(SIDE_PX * scale_of(foreground.shape)))
+    scale = scale_of(foreground.shape)
+    side = int(round(SIDE_PX * scale))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * side + 1,) * 2)
     near = np.zeros((len(skeleton.bones),) + foreground.shape, bool)
     for bone in np.unique(owner):
@@ -76,6 +84,16 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     most = cv2.dilate(held, disc)
     least = -cv2.dilate(np.where(body, -held, -np.float32(labels.max() + 1)), disc)
     parts_two = stroke & (most > least)
+    gap = np.zeros_like(stroke) if glued is None else np.asarray(glued, bool) & ~foreground
+    if gap.any():
+        # the outline's soft rim is no gap: keep the paper the mesh holds on both sides
+        rim = int(round(RIM_PX * scale))
+        gap &= cv2.erode((gap | foreground).astype(np.uint8), np.ones((2 * rim + 1,) * 2, np.uint8)) > 0
+    if gap.any():
+        for owned in _gap_sides(foreground, body, ys, xs, owner, pose, skeleton):
+            for bone in np.unique(owned[owned >= 0]):
+                near[bone] |= (cv2.dilate((owned == bone).astype(np.uint8), disc) > 0) & gap
+        parts_two |= gap
     adjacent = skeleton.adjacent_bones()
     thick = None  # the bodies' regions, only for bones joined around a short bone
     ends = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
@@ -100,6 +118,25 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
         if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX * scale_of(foreground.shape):
             pieces.append(piece)
     return pieces
+
+
+def _gap_sides(foreground: np.ndarray, body: np.ndarray, ys: np.ndarray, xs: np.ndarray, owner: np.ndarray,
+               pose: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
+    """Two readings of which bone's body each (H, W) foreground pixel is, (H, W) int64 (-1 off it): the
+    compartments' owner (body pixels ys, xs -> owner) carried onto the strokes (the paint's own edges read as
+    strokes, pigment pools there), and the nearest bone. Paper glued between bodies parts them if either
+    reading sees two bones on its sides: the compartments keep a wide torso's edge from a forearm beside it,
+    the nearest bone sees through watercolour granulation that breaks a hand into specks of strokes."""
+    compartments = np.full(foreground.shape, -1, np.int64)
+    compartments[ys, xs] = owner
+    _, (iy, ix) = ndimage.distance_transform_edt(~body, return_indices=True)
+    compartments = np.where(foreground, compartments[iy, ix], -1)
+    fy, fx = np.nonzero(foreground)
+    p = np.stack([fx, fy], axis=1).astype(np.float64)
+    nearest = np.full(foreground.shape, -1, np.int64)
+    nearest[fy, fx] = np.argmin(np.stack([segment_distance(p, pose[a, :2], pose[b, :2])
+                                          for a, b in skeleton.bones]), axis=0)
+    return compartments, nearest
 
 
 def drawn_parts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton

@@ -103,7 +103,7 @@ def build_masks(
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
-        contacts = stroke_contacts(drawing, body, pose, skeleton)
+        contacts = stroke_contacts(drawing, body, pose, skeleton, glued=fg & ~body)
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w

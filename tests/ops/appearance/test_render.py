@@ -254,3 +254,44 @@ def test_distorted_pixels_are_those_of_faces_scaled_past_the_limit():
     assert distorted[:, 100:][shown[:, 100:]].all()  # deep in the pulled half
     assert not distorted[:, :25].any()  # the untouched left part
     assert not (distorted & ~shown).any()
+
+
+def _slit_sheet() -> TexturedTemplate:
+    """Front sheet of two rectangles slit apart along x = 28 (their vertices there doubled, as cut_along leaves
+    them): A [8, 28] x [8, 40] follows joint 0 and is translucent red (a pale limb's soft edge), B [28, 56] x
+    [8, 40] follows joint 1 and is opaque blue."""
+    parts, faces, n = [], [], 0
+    for x0, x1 in ((8.0, 28.0), (28.0, 56.0)):
+        ring = _ring(x0, 8.0, x1, 40.0, 4.0)
+        t = triangle.triangulate({"vertices": ring, "segments": _loop(0, len(ring))}, "pq30a8Y")
+        parts.append(t["vertices"])
+        faces.append(t["triangles"].astype(np.int64) + n)
+        n += len(t["vertices"])
+    V = np.concatenate(parts)
+    F = _positive(V, np.concatenate(faces))
+    in_a = np.zeros(len(V), bool)
+    in_a[:len(parts[0])] = True
+    W = np.stack([in_a, ~in_a], axis=1).astype(np.float64)
+    tpl = Template(rest=V, faces=F, face_layer=np.zeros(len(F), np.int64), handles=np.array([0, len(parts[0])]),
+                   handle_weights=np.eye(2), handle_offsets=np.zeros((2, 2)), handle_frames=np.full((2, 2), -1),
+                   cut_assignment=[], energy=0.0, trials=1, mode="optimized")
+    tex = np.zeros((48, 64, 4), np.float32)
+    tex[8:41, 8:28] = (1.0, 0.0, 0.0, 0.5)
+    tex[8:41, 28:57] = (0.0, 0.0, 1.0, 1.0)
+    return TexturedTemplate(tpl, W, np.zeros(len(F), np.int64), tex, np.zeros_like(tex), np.zeros((48, 64), bool)), in_a
+
+
+def test_a_slit_limb_over_the_body_shows_the_body_through_its_soft_edge():
+    tt, in_a = _slit_sheet()
+    pose = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 0.0]])  # joint 0 (A) in front
+    renderer = Renderer(tt)
+    # at rest the slit's two sides meet edge to edge: nothing is composited twice, the texture comes back
+    rest, _, _ = renderer.frame(tt.template.rest, pose, supersample=2)
+    inner = (slice(10, 39), slice(10, 55))  # the seam at x = 28 included, the outline's half-covered pixels not
+    assert np.abs(rest[inner] - tt.texture[inner]).max() < 1e-5
+    # A moved 10 px right lies over B: its half-transparent red over B's blue, not over the paper
+    X = tt.template.rest + np.where(in_a[:, None], [10.0, 0.0], 0.0)
+    rgba, _, _ = renderer.frame(X, pose, supersample=2)
+    assert np.allclose(rgba[20:30, 31:36], (0.5, 0.0, 0.5, 1.0), atol=1e-4)
+    assert np.allclose(rgba[20:30, 20:26], (1.0, 0.0, 0.0, 0.5), atol=1e-4)  # over nothing it stays translucent
+    assert np.allclose(rgba[20:30, 42:50], (0.0, 0.0, 1.0, 1.0), atol=1e-4)

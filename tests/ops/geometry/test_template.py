@@ -210,10 +210,11 @@ def test_handles_along_bones_keep_a_still_limb_straight(monkeypatch):
     assert along < 1.5 and along < 0.6 * midpoint_only
 
 
-def test_a_slit_that_flattens_faces_is_left_out_with_a_warning(tmp_path):
+def test_a_slit_ending_on_the_outline_at_a_hairs_angle_meshes_open(tmp_path):
     """two_poses at half size (the farm tests' copy): key1's slit along the hip ends on the outline at a hair's
-    angle and Triangle emitted 223 flat faces, which no deformation can start from. The template leaves that
-    slit out, says so, and keeps every face open."""
+    angle. While Triangle split the outline's edge at the slit's end itself it emitted 223 flat faces there
+    (and failed outright, or crashed, on other drawings); with the end made a vertex of the outline both slits
+    mesh, every face open."""
     from ops.segmentation.masks import build_masks
     from ops.segmentation.refine import refine_masks
     from ops.shotio.image_io import read_image
@@ -224,10 +225,11 @@ def test_a_slit_that_flattens_faces_is_left_out_with_a_warning(tmp_path):
     pose = shot.key_pose(1)
     masks = build_masks(read_image(shot.keyframes[1]), pose, shot.skeleton)
     refined = refine_masks(masks, shot.t_junctions[1], pose, shot.skeleton)
-    assert len(refined.slits) == 2
+    assert len(refined.slits) >= 2
     base = build_template(refined, pose, shot.skeleton)
     assert signed_areas(base.V, base.F).min() > 1e-3
-    assert any("contact slit(s) left out" in w for w in base.warnings)
+    assert not any("left out" in w or "duplicate" in w for w in base.warnings), base.warnings
+    assert len(np.unique(np.round(base.V, 6), axis=0)) < len(base.V)  # cut along: slit vertices doubled
     res = Deformer(base.V, base.F, base.handle_vertex).solve(
         handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, pose))
     assert np.isfinite(res.energy)

@@ -1,6 +1,7 @@
 """Tests of ops.segmentation.contacts: touching bodies found on the drawing's strokes, thin overlaps, slits."""
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from ops.segmentation import contacts as contacts_mod
@@ -68,6 +69,29 @@ def test_the_torso_near_a_hand_on_its_outline_stays_the_torsos():
 def test_an_arm_apart_from_the_torso_is_no_contact():
     drawing, pose, fg = hanging_arm(gap=8.0)
     assert stroke_contacts(drawing, fg, pose, SKELETON) == []
+
+
+def test_paper_glued_between_painted_bodies_is_a_contact():
+    """Watercolour: an arm painted 3 px beside the torso, no ink anywhere. The mesh's foreground closes the gap;
+    that glued paper is where the two bodies part. Without it nothing is found (paint has no strokes)."""
+    shape = (SIZE, SIZE)
+    torso = capsule(shape, (80, 40), (80, 125), 20)
+    x = 48.0  # the arm's right edge at 56, the torso's left at 60
+    arm = capsule(shape, (x, 48), (x, 86), 8) | capsule(shape, (x, 86), (x, 122), 8)
+    shoulder = capsule(shape, (x, 48), (66, 40), 6)
+    painted = torso | arm | shoulder
+    drawing = np.ones(shape + (3,), np.float32)
+    drawing[torso] = (0.93, 0.55, 0.65)  # pink top
+    drawing[arm | shoulder] = (0.96, 0.84, 0.74)  # pale skin: lighter than the top, by less than a stroke
+    closed = cv2.morphologyEx(painted.astype(np.uint8), cv2.MORPH_CLOSE,
+                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))).astype(bool)
+    pose = np.array([[80, 125, 0], [80, 40, 0], [x, 48, -0.5], [x, 86, -0.5], [x + 8, 122, -0.5]], float)
+    assert stroke_contacts(drawing, painted, pose, SKELETON) == []
+    pieces = stroke_contacts(drawing, painted, pose, SKELETON, glued=closed & ~painted)
+    assert pieces
+    ys, xs = np.nonzero(np.any(pieces, axis=0))
+    assert ((xs >= 56) & (xs <= 60)).all()  # in the gap (57-59) or on its edges
+    assert ys.max() - ys.min() >= 50  # along the forearm and upper arm
 
 
 def test_thin_overlap_along_a_contact_is_told_from_a_real_one():
