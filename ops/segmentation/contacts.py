@@ -89,28 +89,18 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
         # the outline's soft rim is no gap: keep the paper the mesh holds on both sides
         rim = int(round(RIM_PX * scale))
         gap &= cv2.erode((gap | foreground).astype(np.uint8), np.ones((2 * rim + 1,) * 2, np.uint8)) > 0
+    readings = [(near, parts_two)]
     if gap.any():
+        # each reading of the gap's sides is tested alone: bones from two readings on one side are one body
         for owned in _gap_sides(foreground, body, ys, xs, owner, pose, skeleton):
+            near_gap = np.zeros_like(near)
             for bone in np.unique(owned[owned >= 0]):
-                near[bone] |= (cv2.dilate((owned == bone).astype(np.uint8), disc) > 0) & gap
-        parts_two |= gap
-    adjacent = skeleton.adjacent_bones()
-    thick = None  # the bodies' regions, only for bones joined around a short bone
-    ends = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
+                near_gap[bone] = (cv2.dilate((owned == bone).astype(np.uint8), disc) > 0) & gap
+            readings.append((near_gap, gap))
+    cache: dict = {}  # the bodies' regions, only for bones joined around a short bone
     touching = np.zeros(foreground.shape, bool)
-    present = [b for b in range(len(near)) if near[b].any()]
-    for i in present:
-        for j in present:
-            if j <= i or adjacent[i, j]:
-                continue
-            both = near[i] & near[j] & parts_two
-            between = adjacent[i] & adjacent[j]
-            if between.any():  # a join around a short bone (a waist, a shoulder), or a limb along the body?
-                thick = thick_regions(foreground, pose, skeleton) if thick is None else thick
-                both &= ~thick[between].any(axis=0)
-                longer = i if np.linalg.norm(np.diff(ends[i], axis=0)) >= np.linalg.norm(np.diff(ends[j], axis=0)) else j
-                both = _along(both, ends[longer])
-            touching |= both
+    for near_r, parts_r in readings:
+        touching |= _touching(near_r, parts_r, foreground, pose, skeleton, cache)
     labels_t, n = ndimage.label(touching, structure=np.ones((3, 3), bool))
     pieces = []
     for lab in range(1, n + 1):
@@ -120,12 +110,37 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     return pieces
 
 
+def _touching(near: np.ndarray, parts: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+              cache: dict) -> np.ndarray:
+    """(H, W) bool pixels of `parts` ((H, W) bool) that (B, H, W) bool `near` puts beside the bodies of two bones
+    that share no joint. Bones joined around a short bone (a waist, a shoulder) touch only outside that
+    bone's body and along the longer bone (a limb along the body). cache holds the bodies' regions."""
+    adjacent = skeleton.adjacent_bones()
+    ends = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
+    touching = np.zeros(foreground.shape, bool)
+    present = [b for b in range(len(near)) if near[b].any()]
+    for i in present:
+        for j in present:
+            if j <= i or adjacent[i, j]:
+                continue
+            both = near[i] & near[j] & parts
+            between = adjacent[i] & adjacent[j]
+            if between.any():
+                if "thick" not in cache:
+                    cache["thick"] = thick_regions(foreground, pose, skeleton)
+                both &= ~cache["thick"][between].any(axis=0)
+                longer = i if np.linalg.norm(np.diff(ends[i], axis=0)) >= np.linalg.norm(np.diff(ends[j], axis=0)) else j
+                both = _along(both, ends[longer])
+            touching |= both
+    return touching
+
+
 def _gap_sides(foreground: np.ndarray, body: np.ndarray, ys: np.ndarray, xs: np.ndarray, owner: np.ndarray,
                pose: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
     """Two readings of which bone's body each (H, W) foreground pixel is, (H, W) int64 (-1 off it): the
     compartments' owner (body pixels ys, xs -> owner) carried onto the strokes (the paint's own edges read as
     strokes, pigment pools there), and the nearest bone. Paper glued between bodies parts them if either
-    reading sees two bones on its sides: the compartments keep a wide torso's edge from a forearm beside it,
+    reading alone sees two bones on its sides: the compartments keep a wide torso's edge from a forearm beside it,
     the nearest bone sees through watercolour granulation that breaks a hand into specks of strokes."""
     compartments = np.full(foreground.shape, -1, np.int64)
     compartments[ys, xs] = owner
