@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-from scipy.sparse import coo_matrix
 
 from ops.appearance.layers import layer_depth, layer_groups
 from ops.geometry.mesh import face_stretch
@@ -65,46 +64,6 @@ def rasterize_ids(X: np.ndarray, faces: np.ndarray, order: np.ndarray, shape: tu
     for f, tri in zip(order.tolist(), tris):
         cv2.fillConvexPoly(ids, tri, f, lineType=cv2.LINE_8, shift=SHIFT)
     return ids
-
-
-def rasterize_under(X: np.ndarray, faces: np.ndarray, order: np.ndarray, shape: tuple[int, int], scale: int,
-                    where: np.ndarray) -> np.ndarray:
-    """What lies beneath the top face (as rasterize_ids paints it) at the (H*s, W*s) bool samples `where`:
-    (H*s, W*s) int32 face id, -1 for none and off `where`. A face painted over a neighbour (one sharing a
-    vertex: they meet on an edge, the fill is inclusive) keeps what was under it; over any other face it puts
-    that face under. Only faces whose box holds a sample of `where` are painted: the others change nothing
-    there."""
-    h, w = shape
-    top = np.full((h * scale, w * scale), -1, dtype=np.int32)
-    under = top.copy()
-    order = np.asarray(order, dtype=np.int64)
-    if order.size == 0 or not where.any():
-        return under
-    faces = np.asarray(faces)
-    pts = np.round(to_supersampled(X, scale) * (1 << SHIFT)).astype(np.int32)
-    tris = pts[faces[order]]
-    lo = np.clip((tris.min(axis=1) >> SHIFT) - 1, 0, [w * scale - 1, h * scale - 1])
-    hi = np.clip((tris.max(axis=1) >> SHIFT) + 2, 1, [w * scale, h * scale])
-    count = cv2.integral(where.astype(np.uint8))  # (H*s + 1, W*s + 1) samples of `where` above-left
-    inside = (count[hi[:, 1], hi[:, 0]] - count[lo[:, 1], hi[:, 0]] - count[hi[:, 1], lo[:, 0]]
-              + count[lo[:, 1], lo[:, 0]]) > 0
-    inc = coo_matrix((np.ones(faces.size), (np.repeat(np.arange(len(faces)), 3), faces.ravel()))).tocsr()
-    touch = (inc @ inc.T).tocsr()
-    mark = np.zeros(len(faces) + 1, bool)  # mark[-1] (empty) stays False
-    for k in np.nonzero(inside)[0].tolist():
-        f, (x0, y0), (x1, y1) = int(order[k]), lo[k].tolist(), hi[k].tolist()
-        patch = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.fillConvexPoly(patch, tris[k] - np.array([x0 << SHIFT, y0 << SHIFT], np.int32), 1,
-                           lineType=cv2.LINE_8, shift=SHIFT)
-        m = patch.astype(bool) & where[y0:y1, x0:x1]
-        t, u = top[y0:y1, x0:x1], under[y0:y1, x0:x1]
-        was = t[m]
-        nbrs = touch.indices[touch.indptr[f]:touch.indptr[f + 1]]
-        mark[nbrs] = True
-        u[m] = np.where(mark[was], u[m], was)
-        mark[nbrs] = False
-        t[m] = f
-    return under
 
 
 def affine_maps(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
@@ -209,16 +168,30 @@ class Renderer:
         if not self.slit:
             return pre, map_x, map_y, hidden, ids
         # the front sheet over itself (a slit limb across the body): a soft edge on top shows the sheet
-        # beneath it, not the paper; pockets stay out, so at rest nothing shows through the drawing's edges
+        # beneath it, not the paper; pockets stay out, so at rest nothing shows through the drawing's edges.
+        # The sheet painted front to back leaves the face beneath standing (the backmost, where three stack)
         sheet = tpl.face_layer == 0
         soft = (ids >= 0) & sheet.take(np.maximum(ids, 0)) & (pre[..., 3] < 0.999)
-        under = rasterize_under(X, tpl.faces, order, shape, s, soft)
-        fold = soft & (under >= 0) & sheet.take(np.maximum(under, 0))
-        if fold.any():
-            below, bx, by, _ = self._sample_ids(np.where(fold, under, -1), X, s)
-            # a neighbour sharing the sample on an edge reads the same drawing point: no fold there
-            apart = np.hypot(bx - map_x, by - map_y) > 1.0
-            pre += (1.0 - pre[..., 3:4]) * np.where(apart[..., None], below, 0.0)
+        if not soft.any():
+            return pre, map_x, map_y, hidden, ids
+        back_to_front = order[::-1]
+        under = rasterize_ids(X, tpl.faces, back_to_front[sheet[back_to_front]], shape, s)
+        ys, xs = np.nonzero(soft & (under >= 0) & (under != ids) & sheet.take(np.maximum(under, 0)))
+        if len(ys):
+            f = under[ys, xs]
+            A = affine_maps(np.asarray(X, np.float64)[tpl.faces[f]], tpl.rest[tpl.faces[f]])  # (k, 2, 3)
+            px, py = (xs // s).astype(np.float64), (ys // s).astype(np.float64)
+            bx = (A[:, 0, 0] * px + A[:, 0, 1] * py + A[:, 0, 2]).astype(np.float32)
+            by = (A[:, 1, 0] * px + A[:, 1, 1] * py + A[:, 1, 2]).astype(np.float32)
+            # a neighbour sharing the sample on an edge (the fill is inclusive) reads the same drawing point
+            apart = np.hypot(bx - map_x[ys, xs], by - map_y[ys, xs]) > 1.0
+            ys, xs, f, bx, by = ys[apart], xs[apart], f[apart], bx[apart], by[apart]
+            back = self.textured.face_source[f] > 0
+            below = np.zeros((len(ys), 4), np.float32)
+            for texture, pick in ((self.front, ~back), (self.back, back)):
+                if pick.any():  # a (1, k) map samples just these points
+                    below[pick] = cv2.remap(texture, bx[pick][None], by[pick][None], **_REMAP)[0]
+            pre[ys, xs] += (1.0 - pre[ys, xs, 3:4]) * below
         return pre, map_x, map_y, hidden, ids
 
     def _sample_ids(self, ids: np.ndarray, X: np.ndarray, s: int):
