@@ -285,11 +285,12 @@ def leave_past_workers(code: int, wait_s: float = 0.5) -> None:
     import logging
     import threading
 
+    # named so by assets/ahead.py, not imported here: it brings Dagster, and most commands never load it
+    workers = [t for t in threading.enumerate() if t.name.startswith("inbetween-ahead")]
     deadline = time.monotonic() + wait_s
-    for t in threading.enumerate():
-        if t.name.startswith("inbetween-ahead"):
-            t.join(max(0.0, deadline - time.monotonic()))
-    if not any(t.name.startswith("inbetween-ahead") and t.is_alive() for t in threading.enumerate()):
+    for t in workers:
+        t.join(max(0.0, deadline - time.monotonic()))
+    if not any(t.is_alive() for t in workers):
         return
     logging.shutdown()
     for stream in (sys.stdout, sys.stderr):

@@ -154,7 +154,8 @@ class Renderer:
         self.back = premultiply(textured.back_texture)
         self.groups = layer_groups(textured.template)
         tpl = textured.template
-        used = np.unique(tpl.faces[tpl.face_layer == 0])
+        self.sheet = tpl.face_layer == 0  # (m,) the front sheet's faces
+        used = np.unique(tpl.faces[self.sheet])
         # a front sheet slit along a contact or cut around a region has vertices twice at one rest point;
         # only then can it lie over itself without folding
         self.slit = len(np.unique(np.round(tpl.rest[used], 6), axis=0)) < len(used)
@@ -170,7 +171,7 @@ class Renderer:
         # the front sheet over itself (a slit limb across the body): a soft edge on top shows the sheet
         # beneath it, not the paper; pockets stay out, so at rest nothing shows through the drawing's edges.
         # The sheet painted front to back leaves the face beneath standing (the backmost, where three stack)
-        sheet = tpl.face_layer == 0
+        sheet = self.sheet
         soft = (ids >= 0) & sheet.take(np.maximum(ids, 0)) & (pre[..., 3] < 0.999)
         if not soft.any():
             return pre, map_x, map_y, hidden, ids

@@ -210,11 +210,11 @@ def triangulate_pslg(
     sizes = [len(L) for L in loops]
     allp = np.concatenate(loops + slits + [pts], axis=0)
     U, inv = _merge_points(allp)
-    given = np.concatenate(loops + [pts], axis=0)  # slits end on loop vertices on purpose
-    merged = len(given) - len(_merge_points(given)[0])
+    offs = np.cumsum([0] + sizes)
+    given = np.concatenate([inv[:offs[-1]], inv[len(allp) - len(pts):]])  # slits end on loop vertices on purpose
+    merged = len(given) - len(np.unique(given))
     if merged:
         warnings.append(f"merged {merged} duplicate input vertex(es)")
-    offs = np.cumsum([0] + sizes)
     idx = [inv[offs[i]:offs[i + 1]] for i in range(len(loops))]
     if len(np.unique(idx[0])) < 3:
         raise ValueError("outer boundary loop has fewer than 3 distinct vertices")

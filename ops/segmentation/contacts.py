@@ -64,11 +64,13 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     """
     stroke, labels, holds = drawn_parts(drawing, foreground, pose, skeleton)
     body = holds.any(axis=0)[labels]  # pixels of held compartments
-    ys, xs = np.nonzero(body)
-    if len(xs) == 0 or len(skeleton.bones) < 2:
+    if not body.any() or len(skeleton.bones) < 2:
         return []
-    p = np.stack([xs, ys], axis=1).astype(np.float64)
-    dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
+    fy, fx = np.nonzero(foreground)  # body pixels are foreground pixels: one distance to each bone serves both
+    p = np.stack([fx, fy], axis=1).astype(np.float64)
+    bone_dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
+    in_body = body[fy, fx]
+    ys, xs, dist = fy[in_body], fx[in_body], bone_dist[:, in_body]
     dist[~holds[:, labels[ys, xs]]] = np.inf
     owner = np.argmin(dist, axis=0)
     scale = scale_of(foreground.shape)
@@ -84,15 +86,16 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     most = cv2.dilate(held, disc)
     least = -cv2.dilate(np.where(body, -held, -np.float32(labels.max() + 1)), disc)
     parts_two = stroke & (most > least)
-    gap = np.zeros_like(stroke) if glued is None else np.asarray(glued, bool) & ~foreground
-    if gap.any():
-        # the outline's soft rim is no gap: keep the paper the mesh holds on both sides
-        rim = int(round(RIM_PX * scale))
-        gap &= cv2.erode((gap | foreground).astype(np.uint8), np.ones((2 * rim + 1,) * 2, np.uint8)) > 0
     readings = [(near, parts_two)]
+    gap = np.zeros_like(stroke) if glued is None else np.asarray(glued, bool) & ~foreground
+    # the outline's soft rim is no gap: keep the paper the mesh holds on both sides
+    rim = int(round(RIM_PX * scale))
+    gap &= cv2.erode((gap | foreground).astype(np.uint8), np.ones((2 * rim + 1,) * 2, np.uint8)) > 0
     if gap.any():
+        nearest = np.full(foreground.shape, -1, np.int64)
+        nearest[fy, fx] = np.argmin(bone_dist, axis=0)
         # each reading of the gap's sides is tested alone: bones from two readings on one side are one body
-        for owned in _gap_sides(foreground, body, ys, xs, owner, pose, skeleton):
+        for owned in (_carried(foreground, body, ys, xs, owner), nearest):
             near_gap = np.zeros_like(near)
             for bone in np.unique(owned[owned >= 0]):
                 near_gap[bone] = (cv2.dilate((owned == bone).astype(np.uint8), disc) > 0) & gap
@@ -105,7 +108,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     pieces = []
     for lab in range(1, n + 1):
         piece = labels_t == lab
-        if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX * scale_of(foreground.shape):
+        if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX * scale:
             pieces.append(piece)
     return pieces
 
@@ -135,23 +138,20 @@ def _touching(near: np.ndarray, parts: np.ndarray, foreground: np.ndarray, pose:
     return touching
 
 
-def _gap_sides(foreground: np.ndarray, body: np.ndarray, ys: np.ndarray, xs: np.ndarray, owner: np.ndarray,
-               pose: np.ndarray, skeleton: Skeleton) -> tuple[np.ndarray, np.ndarray]:
-    """Two readings of which bone's body each (H, W) foreground pixel is, (H, W) int64 (-1 off it): the
-    compartments' owner (body pixels ys, xs -> owner) carried onto the strokes (the paint's own edges read as
-    strokes, pigment pools there), and the nearest bone. Paper glued between bodies parts them if either
-    reading alone sees two bones on its sides: the compartments keep a wide torso's edge from a forearm beside it,
-    the nearest bone sees through watercolour granulation that breaks a hand into specks of strokes."""
-    compartments = np.full(foreground.shape, -1, np.int64)
-    compartments[ys, xs] = owner
+def _carried(foreground: np.ndarray, body: np.ndarray, ys: np.ndarray, xs: np.ndarray, owner: np.ndarray
+             ) -> np.ndarray:
+    """(H, W) int64 owner of every foreground pixel (-1 off it): the compartments' owner of the body pixels
+    (ys, xs -> owner) carried onto the strokes, each taking its nearest body pixel's (the paint's own edges
+    read as strokes: pigment pools there).
+
+    This is one of two readings of glued paper's sides; the other is the nearest bone. Paper glued between
+    bodies parts them if either reading alone sees two bones on its sides: the compartments keep a wide
+    torso's edge from a forearm beside it, the nearest bone sees through watercolour granulation that
+    breaks a hand into specks of strokes."""
+    owned = np.full(foreground.shape, -1, np.int64)
+    owned[ys, xs] = owner
     _, (iy, ix) = ndimage.distance_transform_edt(~body, return_indices=True)
-    compartments = np.where(foreground, compartments[iy, ix], -1)
-    fy, fx = np.nonzero(foreground)
-    p = np.stack([fx, fy], axis=1).astype(np.float64)
-    nearest = np.full(foreground.shape, -1, np.int64)
-    nearest[fy, fx] = np.argmin(np.stack([segment_distance(p, pose[a, :2], pose[b, :2])
-                                          for a, b in skeleton.bones]), axis=0)
-    return compartments, nearest
+    return np.where(foreground, owned[iy, ix], -1)
 
 
 def drawn_parts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
