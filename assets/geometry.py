@@ -61,9 +61,10 @@ def _refined(k: int):
             env.context.log.warning(w)
         pts = [b[j] for b, j in zip(refined.boundaries, refined.junctions)]
         meta = {"regions": len(refined.occlusion), "t_junctions": int(sum(len(j) for j in refined.junctions)),
-                "boundary_vertices": [len(b) for b in refined.boundaries], "warnings": refined.warnings}
+                "boundary_vertices": [len(b) for b in refined.boundaries], "slits": len(refined.slits),
+                "warnings": refined.warnings}
         img = preview.mask_overlay(env.drawing(k), refined.foreground, refined.occlusion,
-                                   [*refined.domain, *refined.boundaries], pts)
+                                   [*refined.domain, *refined.boundaries], pts, refined.slits)
         return StageResult(refined, meta, img)
 
     return compute

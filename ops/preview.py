@@ -22,6 +22,7 @@ OCC_WEIGHT = 0.55
 PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (148, 103, 189),
            (23, 190, 207), (188, 189, 34), (227, 119, 194), (140, 86, 75)]
 POINT_COLOUR = (214, 39, 40)
+SLIT_COLOUR = (255, 200, 0)  # the contacts' slits: where the template is cut apart
 HANDLE_COLOUR = (214, 39, 40)
 FRONT_COLOUR = (50, 50, 50)
 POCKET_OFFSET = 2.0        # preview pixels each pocket layer's wireframe is shifted down-right
@@ -70,9 +71,10 @@ def _fixed(points: np.ndarray, scale: float, offset: float = 0.0) -> np.ndarray:
 
 def mask_overlay(drawing: np.ndarray, foreground: np.ndarray, occlusion: list[np.ndarray],
                  boundaries: list[np.ndarray] | None = None,
-                 points: list[np.ndarray] | None = None) -> np.ndarray:
-    """drawing (H, W, C), foreground (H, W) bool, occlusion [(H, W) bool], boundaries [(n, 2)], points [(k, 2)]
-    -> (h, w, 3) float32: foreground tinted, region i in region_colour(i), boundaries, T-junction circles."""
+                 points: list[np.ndarray] | None = None, slits: list[np.ndarray] | None = None) -> np.ndarray:
+    """drawing (H, W, C), foreground (H, W) bool, occlusion [(H, W) bool], boundaries [(n, 2)], points [(k, 2)],
+    slits [(n, 2) open polylines] -> (h, w, 3) float32: foreground tinted, region i in region_colour(i),
+    boundaries, T-junction circles, slits in SLIT_COLOUR."""
     rgb = _rgb(drawing)
     fg = np.asarray(foreground, bool)[..., None]
     rgb = np.where(fg, (1 - FG_WEIGHT) * rgb + FG_WEIGHT * np.float32(FG_TINT) / 255, rgb)
@@ -85,6 +87,8 @@ def mask_overlay(drawing: np.ndarray, foreground: np.ndarray, occlusion: list[np
         if len(line) >= 2:
             dark = tuple(int(c * 0.6) for c in region_colour(i))
             cv2.polylines(img, [_fixed(line, scale)], True, dark, 1, cv2.LINE_8, SUBPIXEL_BITS)
+    for line in slits or []:
+        cv2.polylines(img, [_fixed(line, scale)], False, SLIT_COLOUR, 2, cv2.LINE_8, SUBPIXEL_BITS)
     for pts in points or []:
         for p in _fixed(np.asarray(pts).reshape(-1, 2), scale):
             cv2.circle(img, (int(p[0]), int(p[1])), 4 << SUBPIXEL_BITS, POINT_COLOUR, 2, cv2.LINE_8,

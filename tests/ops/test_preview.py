@@ -12,6 +12,7 @@ from ops.preview import (
     OCC_WEIGHT,
     POCKET_OFFSET,
     POINT_COLOUR,
+    SLIT_COLOUR,
     checkerboard,
     frame_strip,
     mask_overlay,
@@ -60,6 +61,15 @@ def test_mask_overlay_boundaries_and_points():
     np.testing.assert_array_equal(_u8(img, 35, 20), dark)      # closed: the left edge joins back
     np.testing.assert_array_equal(_u8(img, 70, 104), POINT_COLOUR)  # circle radius 4 around (100, 70)
     assert not np.array_equal(_u8(img, 70, 100), POINT_COLOUR)     # hollow centre
+
+
+def test_mask_overlay_draws_slits_open():
+    fg = np.ones((H, W), bool)
+    slit = np.array([[20, 30], [60, 30], [60, 60]], float)
+    img = mask_overlay(_white(), fg, [], slits=[slit])
+    np.testing.assert_array_equal(_u8(img, 30, 40), SLIT_COLOUR)  # along the first piece
+    np.testing.assert_array_equal(_u8(img, 45, 60), SLIT_COLOUR)  # along the second
+    assert not np.array_equal(_u8(img, 45, 40), SLIT_COLOUR)      # open: no edge back from the end
 
 
 def test_mask_overlay_downscales_wide_images():
