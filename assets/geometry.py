@@ -56,7 +56,7 @@ def _refined(k: int):
         """Occlusion masks deformed so their boundaries pass through the T-junctions (§4.1)."""
         masks: Masks = env.read(f"key{k}/masks")
         shot = env.shot
-        refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton)
+        refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton, shot.key_pose(1 - k))
         for w in refined.warnings[len(masks.warnings):]:  # the masks stage already logged its own
             env.context.log.warning(w)
         pts = [b[j] for b, j in zip(refined.boundaries, refined.junctions)]

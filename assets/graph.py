@@ -19,7 +19,7 @@ def _lane(k: int) -> dict[str, tuple[str, ...]]:
     o = 1 - k
     return {
         f"key{k}/masks": (f"key{k}/drawing", f"key{k}/pose"),
-        f"key{k}/refined_masks": (f"key{k}/masks", f"key{k}/t_junctions", f"key{k}/pose"),
+        f"key{k}/refined_masks": (f"key{k}/masks", f"key{k}/t_junctions", f"key{k}/pose", f"key{o}/pose"),
         f"key{k}/template": (f"key{k}/refined_masks", f"key{k}/pose", f"key{o}/pose"),
         f"key{k}/textured_template": (f"key{k}/template", f"key{k}/refined_masks", f"key{o}/refined_masks",
                                       f"key{k}/pose", f"key{o}/pose"),

@@ -257,18 +257,29 @@ def cut_along(V: np.ndarray, F: np.ndarray, edges: np.ndarray) -> tuple[np.ndarr
     there (its end vertex keeps one group), so a slit is a slot; one that reaches the boundary frees a flap.
     """
     V = np.asarray(V, np.float64)
-    F = np.asarray(F, np.int64).copy()
     cut = {tuple(sorted(e)) for e in np.asarray(edges, np.int64).reshape(-1, 2).tolist()}
     if not cut:
-        return V, F, np.arange(len(V))
-    incident: dict[int, list[int]] = {}
-    for v in sorted({v for e in cut for v in e}):
-        incident[v] = []
-    for f, tri in enumerate(F.tolist()):
-        for v in tri:
+        return V, np.asarray(F, np.int64).copy(), np.arange(len(V))
+    F, origin = split_fans(F, len(V), sorted({v for e in cut for v in e}), cut)
+    return V[origin], F, origin
+
+
+def split_fans(F: np.ndarray, n: int, vertices, cut: set[tuple[int, int]] = frozenset()
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Give each fan of faces around each of `vertices` its own vertex: (F', origin (n',) int64 vertex of the n
+    each vertex copies). A fan is the faces around the vertex that meet across its edges not in `cut`
+    ((a, b) with a < b); the first keeps the vertex.
+
+    With no cut this splits pinches: two sheets that touch at a single vertex (where two cuts meet end to
+    end: a slit from a T-junction and the region's cut that stops there) are apart, not hinged there."""
+    F = np.asarray(F, np.int64).copy()
+    wanted = np.unique(np.asarray(list(vertices), np.int64))
+    incident: dict[int, list[int]] = {int(v): [] for v in wanted}
+    for f in np.nonzero(np.isin(F, wanted).any(axis=1))[0].tolist():
+        for v in F[f].tolist():
             if v in incident:
                 incident[v].append(f)
-    origin = list(range(len(V)))
+    origin = list(range(n))
     for v, faces in incident.items():
         parent = {f: f for f in faces}
 
@@ -298,7 +309,7 @@ def cut_along(V: np.ndarray, F: np.ndarray, edges: np.ndarray) -> tuple[np.ndarr
             origin.append(v)
             for f in g:
                 F[f][F[f] == v] = copy
-    return V[origin], F, np.asarray(origin, np.int64)
+    return F, np.asarray(origin, np.int64)
 
 
 def points_in_domain(Q: np.ndarray, loops: list[np.ndarray]) -> np.ndarray:

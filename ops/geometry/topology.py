@@ -22,7 +22,7 @@ import numpy as np
 import optuna
 
 from ops.geometry.deform import Deformer
-from ops.geometry.mesh import project_to_polyline
+from ops.geometry.mesh import project_to_polyline, split_fans
 from ops.geometry.template import TemplateBase, build_template
 from ops.types import RefinedMasks, Skeleton, Template, handle_targets
 
@@ -95,11 +95,13 @@ def incise(base: TemplateBase, assignments: list[Assignment]) -> Incised:
     region = base.face_region.copy()
     handles = base.handle_vertex.copy()
     warnings: list[str] = []
+    switches: list[np.ndarray] = []
     for r, a in enumerate(assignments):
         in_r = region == r
         outside = (layer == 0) & ~in_r
         rv = np.unique(F[in_r])
         sw = np.intersect1d(base.boundary_vertex[r][a.switches], rv)
+        switches.append(sw)
         copy = np.setdiff1d(rv, sw)
         back = np.full(len(V), -1, np.int64)
         back[copy] = len(V) + np.arange(len(copy))
@@ -120,6 +122,10 @@ def incise(base: TemplateBase, assignments: list[Assignment]) -> Incised:
         region = np.concatenate([region, np.full(int(in_r.sum()), -1, np.int64)])
         on_pocket = base.handle_layer == r + 1
         handles[on_pocket] = np.where(back[handles[on_pocket]] >= 0, back[handles[on_pocket]], handles[on_pocket])
+    # a switch vertex where a slit from the T-junction meets the region's cut joins its sheets at one point
+    if switches:
+        F, origin = split_fans(F, len(V), np.concatenate(switches))
+        V = V[origin]
     warnings += _nonmanifold_warning(F)
     return Incised(rest=V, faces=F, face_layer=layer, handles=handles, warnings=warnings)
 

@@ -24,7 +24,7 @@ from ops.geometry.snap import snap_into
 from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
-from ops.segmentation.slits import slit_of
+from ops.segmentation.slits import junction_slits, slit_of
 from ops.types import Masks, RefinedMasks, Skeleton
 
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
@@ -210,11 +210,13 @@ def _positions(B: np.ndarray, J: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=0).astype(np.int64)
 
 
-def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> RefinedMasks:
+def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                 other_pose: np.ndarray | None = None) -> RefinedMasks:
     """Refine every occlusion region of `masks` by the keyframe's (k, 2) T-junctions (pixels) at its (J, 3) pose.
 
     Every click is kept: a region is grown to meet a click far from it, or started at a click when there is
-    no region at all (ops.segmentation.junctions).
+    no region at all (ops.segmentation.junctions). With the other keyframe's (J, 3) pose, a part that it takes
+    off the body it crosses here is also slit free at its T-junctions (ops.segmentation.slits.junction_slits).
     """
     warnings = list(masks.warnings)
     fg = masks.foreground
@@ -251,6 +253,8 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
     taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
     slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
+    if other_pose is not None:  # the other keyframe tells which parts leave the bodies they cross
+        slits += junction_slits(bounds, juncs, fronts, domain, masks.coverage, pose, skeleton, other_pose)
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,

@@ -1,21 +1,29 @@
-"""Slits: the open polylines the template mesh is cut along, one per contact (ops.segmentation.contacts).
+"""Slits: the open polylines the template mesh is cut along: one per contact (ops.segmentation.contacts),
+and one from each T-junction where a part crosses a body it is not joined to, out through the paper.
 
-A slit follows the middle of a contact's stroke, keeps clear of the occlusion regions (their boundaries are
-mesh constraints it must not cross), and an end near the outline is carried on to it, so the cut opens a
-flap there rather than a slot.
+A contact's slit follows the middle of its stroke, keeps clear of the occlusion regions (their boundaries
+are mesh constraints it must not cross), and an end near the outline is carried on to it, so the cut opens
+a flap there rather than a slot.
 """
 from __future__ import annotations
 
+import cv2
 import numpy as np
 from scipy import ndimage
+from skimage.graph import MCP_Geometric
 from skimage.morphology import skeletonize
 
 from ops.geometry.mesh import project_to_polyline
-from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path
+from ops.segmentation.bones import segment_distance
+from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of
+from ops.types import Skeleton
 
 AVOID_PX = 3  # a slit keeps this far from the occlusion regions' boundaries (mesh constraints)
 SLIT_STEP_PX = 3  # spacing of a slit's polyline vertices along the contact
 REACH_OUTLINE_PX = 10.0  # a slit's end this close to the outline is carried on to it (across the notch where two bodies part)
+INK_COST = 8.0  # a junction slit's path: a pixel of character costs this many of paper
+MAX_INK_PX = 4.0  # ... and it crosses at most this much character (the stroke at the junction)
+SEPARATE_PX = 16.0  # ... where the other keyframe takes the part this much farther off the body it crosses (a limb's width)
 
 
 def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> np.ndarray | None:
@@ -36,13 +44,123 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> n
     path = path[:: SLIT_STEP_PX][:-1].tolist() + [path[-1].tolist()]
     ends = []
     for end in (path[0], path[-1]):
-        best = None
-        for L in domain:
-            param, dist = project_to_polyline(np.asarray([end], np.float64), L)
-            i, t = int(param[0]), float(param[0] % 1.0)
-            foot = L[i] + t * (L[(i + 1) % len(L)] - L[i])
-            if dist[0] <= REACH_OUTLINE_PX and (best is None or dist[0] < best[0]):
-                best = (dist[0], foot)
-        ends.append(None if best is None or best[0] < 0.5 else best[1].tolist())
+        dist, foot = _nearest_on(np.asarray(end, np.float64), domain)
+        ends.append(foot.tolist() if 0.5 <= dist <= REACH_OUTLINE_PX else None)
     out = ([ends[0]] if ends[0] else []) + path + ([ends[1]] if ends[1] else [])
     return np.asarray(out, np.float64)
+
+
+def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], front_bones: list[np.ndarray],
+                   domain: list[np.ndarray], coverage: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                   other_pose: np.ndarray) -> list[np.ndarray]:
+    """Open polylines (n, 2) float64 from T-junctions out through the paper to the mesh's outline (or a hole's).
+
+    At a T-junction a part's outline passes in front of another body's. The region's cut stops there, on the
+    drawn stroke, but the mesh reaches on past the outline (its soft rim and margin) and fills the concave
+    corner between the two outlines: that fillet glued the part to the body it crosses (tail's curled tip to
+    its base). The slit follows the cheapest way out of the corner, a pixel of character costing INK_COST of
+    paper, so it runs through the corner's paper rather than along either outline, crosses at most
+    MAX_INK_PX of character (the stroke at the junction) and reaches the outline within REACH_OUTLINE_PX
+    (times 1.5 for its bends). Only where the part and the body are not joined: the region's front bone
+    nearest the junction and the nearest other bone not its neighbour (the body it crosses, not its own
+    chain) share no neighbouring bone (an upper arm under a sleeve stays sewn at the shoulder, thighs under
+    a skirt at the hem), and only where the other keyframe's pose (J, 3) takes the part off that body: the
+    junction, carried with its front bone, ends SEPARATE_PX farther from the crossed bone. A part that stays
+    on the body (a hand resting on a belly in both keyframes) stays sewn at the junction: freed, it slid with
+    its handles where the drawing had it still (flat_colour's claw).
+    """
+    h, w = coverage.shape
+    inside = _fill(domain, (h, w))
+    regions = _fill(boundaries, (h, w))
+    adjacent = skeleton.adjacent_bones()
+    ends_xy = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
+    other_ends = np.asarray(other_pose)[skeleton.bones, :2].astype(np.float64)
+    scale = scale_of(coverage.shape)
+    reach = int(np.ceil(REACH_OUTLINE_PX * 1.5)) + 2
+    out = []
+    for B, J, front in zip(boundaries, junctions, front_bones):
+        front = np.asarray(front, np.int64)
+        behind = np.setdiff1d(np.arange(len(skeleton.bones)), front)
+        if not len(front) or not len(behind):
+            continue
+        for p in np.asarray(B, np.float64)[np.asarray(J, np.int64)]:
+            dist = np.array([segment_distance(p, a, b) for a, b in ends_xy])
+            f = front[np.argmin(dist[front])]
+            crossed = behind[~adjacent[f, behind]]  # the part's own chain (the upper arm of a forearm) crosses nothing
+            if not len(crossed):
+                continue
+            k = crossed[np.argmin(dist[crossed])]
+            if (adjacent[f] & adjacent[k]).any():  # joined through one bone: a sleeve's shoulder, a skirt's hem
+                continue
+            there = _carried(p, ends_xy[f], other_ends[f])
+            if segment_distance(there, *other_ends[k]) - dist[k] < SEPARATE_PX * scale:
+                continue
+            slit = _way_out(p, coverage, inside, regions, domain, reach)
+            if slit is not None:
+                out.append(slit)
+    return out
+
+
+def _carried(p: np.ndarray, bone: np.ndarray, bone_there: np.ndarray) -> np.ndarray:
+    """(2,) point p moved rigidly with a bone from (2, 2) ends `bone` to `bone_there` (its length may change:
+    the point keeps its fraction along the bone and its offset across it)."""
+    a, b = bone
+    a2, b2 = bone_there
+    d, d2 = b - a, b2 - a2
+    t = float(np.clip(np.dot(p - a, d) / max(float(np.dot(d, d)), 1e-12), 0.0, 1.0))
+    off = p - (a + t * d)
+    turn = np.arctan2(d2[1], d2[0]) - np.arctan2(d[1], d[0])
+    c, s = np.cos(turn), np.sin(turn)
+    return a2 + t * d2 + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]])
+
+
+def _fill(loops: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool inside closed polylines (holes of a domain: its negative loops left out by even-odd)."""
+    m = np.zeros(shape, np.uint8)
+    if loops:
+        cv2.fillPoly(m, [np.round(np.asarray(L, np.float64) * 16).astype(np.int32) for L in loops], 1, shift=4)
+    return m > 0
+
+
+def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: np.ndarray,
+             domain: list[np.ndarray], reach: int) -> np.ndarray | None:
+    """(n, 2) polyline from junction p to the domain's outline along the cheapest path of pixels (character
+    costs INK_COST, paper 1; the occlusion regions are closed to it but at p), or None when it crosses more
+    than MAX_INK_PX of character or runs longer than 1.5 REACH_OUTLINE_PX."""
+    h, w = coverage.shape
+    x0, y0 = max(int(p[0]) - reach, 0), max(int(p[1]) - reach, 0)
+    x1, y1 = min(int(p[0]) + reach + 1, w), min(int(p[1]) + reach + 1, h)
+    start = (int(round(p[1])) - y0, int(round(p[0])) - x0)
+    if not (0 <= start[0] < y1 - y0 and 0 <= start[1] < x1 - x0):
+        return None
+    cov = np.clip(coverage[y0:y1, x0:x1].astype(np.float64), 0.0, 1.0)
+    yy, xx = np.mgrid[y0:y1, x0:x1]
+    cost = 1.0 + INK_COST * cov
+    cost[regions[y0:y1, x0:x1] & (np.hypot(xx - p[0], yy - p[1]) > 1.5)] = np.inf
+    ends = np.argwhere(~inside[y0:y1, x0:x1])
+    if not len(ends):
+        return None
+    mcp = MCP_Geometric(cost)
+    acc, _ = mcp.find_costs([start], ends=[tuple(e) for e in ends.tolist()], find_all_ends=False)
+    end = tuple(ends[int(np.argmin(acc[ends[:, 0], ends[:, 1]]))].tolist())
+    if not np.isfinite(acc[end]):
+        return None
+    path = np.asarray(mcp.traceback(end))  # (n, 2) (row, col), p's pixel first
+    pts = path[:, ::-1].astype(np.float64) + [x0, y0]
+    length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+    if cov[path[:, 0], path[:, 1]].sum() > MAX_INK_PX or length > 1.5 * REACH_OUTLINE_PX or len(pts) < 2:
+        return None
+    _, foot = _nearest_on(pts[-2], domain)  # the last pixel inside the domain, carried on to its outline
+    return np.vstack([p[None], pts[1:-1][SLIT_STEP_PX::SLIT_STEP_PX], foot[None]])
+
+
+def _nearest_on(point: np.ndarray, loops: list[np.ndarray]) -> tuple[float, np.ndarray]:
+    """(distance, (2,) foot) of a (2,) point on the nearest of closed polylines (n_i, 2)."""
+    best = (np.inf, np.asarray(point, np.float64))
+    for L in loops:
+        L = np.asarray(L, np.float64)
+        param, dist = project_to_polyline(np.asarray(point, np.float64)[None], L)
+        i, t = int(param[0]), float(param[0] % 1.0)
+        if dist[0] < best[0]:
+            best = (float(dist[0]), L[i] + t * (L[(i + 1) % len(L)] - L[i]))
+    return best

@@ -58,7 +58,7 @@ def test_odd_assignment_indexing_and_errors():
         alternating(np.array([1, 2, 3]), 0)
 
 
-def square_scene(junctions):
+def square_scene(junctions, slits=()):
     """60 px square foreground with a 20 px square occlusion region (8 boundary vertices) in the middle."""
     def sq(x0, s, n_side):
         t = np.linspace(0, 1, n_side, endpoint=False)[:, None]
@@ -71,6 +71,7 @@ def square_scene(junctions):
         foreground=np.ones((61, 61), bool), occlusion=[np.zeros((61, 61), bool)], front_bones=[np.zeros(0, np.int64)],
         boundaries=[sq(20.0, 20.0, 2)], junctions=[np.array(junctions, np.int64)], domain=[sq(0.0, 60.0, 3)], domain_holes=np.zeros((0, 2)),
         coverage=np.ones((61, 61), np.float32), paper=np.ones((61, 61, 3), np.float32), colour=np.ones((61, 61, 3), np.float32),
+        slits=[np.asarray(s, np.float64) for s in slits],
     )
     return build_template(refined, pose, sk, max_area=8.0), refined, sk, pose
 
@@ -109,6 +110,28 @@ def test_incision_two_junctions(start, midpoint_handles):
     assert ((cut[~sw] < n0) == (lab[~sw] == 1)).all()
     # The pocket handle (midpoint of a back bone, at the square's centre) is a back copy.
     assert inc.handles[2] >= n0 and np.allclose(inc.rest[inc.handles[2]], [30.0, 30.0])
+
+
+@pytest.mark.parametrize("start", [0, 1])
+def test_slits_from_the_junctions_part_front_and_pocket(start, midpoint_handles):
+    """Slits from both T-junctions (square corners (20, 20) and (40, 40)) out to the outline's corners divide the
+    outside in two halves: one sewn to the region's front, the other to its pocket. Where a slit meets the
+    region's cut at a switch vertex the sheets touch at that one point; they must come apart there, not hinge."""
+    base, *_ = square_scene([0, 4], slits=[[[20.0, 20.0], [0.0, 0.0]], [[40.0, 40.0], [60.0, 60.0]]])
+    sw = base.boundary_vertex[0][base.junctions[0]]
+    assert np.allclose(np.sort(base.V[sw], axis=0), [[20.0, 20.0], [40.0, 40.0]])
+    inc = incise(base, [alternating(base.junctions[0], start)])
+    comp = vertex_components(len(inc.rest), inc.faces)
+    assert len(np.unique(comp)) == 2
+    front = np.unique(comp[inc.faces[(inc.face_layer == 0)][base.face_region == 0]])
+    pocket = np.unique(comp[inc.faces[inc.face_layer == 1]])
+    assert len(front) == 1 and len(pocket) == 1 and front[0] != pocket[0]
+    # each switch point is now two vertices, one per piece, at the same rest position
+    for p in ([20.0, 20.0], [40.0, 40.0]):
+        at = np.nonzero(np.linalg.norm(inc.rest - p, axis=1) < 1e-9)[0]
+        at = at[np.isin(at, inc.faces)]
+        assert len(at) == 2 and len(np.unique(comp[at])) == 2
+    assert count_flipped(inc.rest, inc.faces) == 0
 
 
 @pytest.mark.parametrize("start", [0, 1])

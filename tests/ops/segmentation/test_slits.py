@@ -1,0 +1,82 @@
+"""Slits from T-junctions (ops.segmentation.slits.junction_slits): out through the corner's paper, only between
+parts that are not joined."""
+import cv2
+import numpy as np
+import pytest
+
+from ops.geometry.mesh import project_to_polyline
+from ops.segmentation.slits import MAX_INK_PX, junction_slits
+from ops.types import Skeleton
+
+SIZE = 80
+CORNERS = np.array([[30.0, 33.0], [44.0, 33.0], [44.0, 47.0], [30.0, 47.0]])  # the crossing square
+
+
+def crossing(between: int):
+    """A horizontal bar (in front) across a vertical one (behind): coverage (1 on the bars, 0 on paper), the
+    mesh domain (the bars' union grown by 3 px, as the mesh's margin), the crossing square as the region with
+    its four corners as T-junctions, and a chain skeleton whose first bone is the vertical bar and whose last
+    is the horizontal one, `between` bones apart (they run off the picture, like a curled tail; 0: the two
+    share a joint)."""
+    cov = np.zeros((SIZE, SIZE), np.float32)
+    cov[10:71, 30:45] = 1.0  # vertical bar, behind
+    cov[33:48, 10:71] = 1.0  # horizontal bar, in front
+    grown = cv2.dilate((cov > 0).astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7)))
+    contours, _ = cv2.findContours(grown, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    domain = [contours[0].reshape(-1, 2).astype(np.float64)]
+    far = [[37.0 + 30.0 * i, -40.0] for i in range(1, between)]
+    joints = [[37.0, 70.0], [37.0, 10.0]] + (far + [[70.0, 40.0], [10.0, 40.0]] if between else [[10.0, 40.0]])
+    pose = np.array([[x, y, 0.0] for x, y in joints])
+    pose[-2:, 2] = -1.0  # the horizontal bar nearer the viewer
+    skeleton = Skeleton(joints=tuple(f"j{i}" for i in range(len(pose))), parents=np.arange(-1, len(pose) - 1))
+    front = [np.array([len(skeleton.bones) - 1])]
+    apart = pose.copy()
+    apart[-2:, :2] += [0.0, 90.0]  # the other keyframe: the horizontal bar well below the vertical one
+    return cov, domain, [CORNERS], [np.arange(4)], front, pose, skeleton, apart
+
+
+def test_slits_leave_each_junction_through_the_corner_paper():
+    cov, domain, bounds, juncs, front, pose, skeleton, apart = crossing(between=3)
+    slits = junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, apart)
+    assert len(slits) == 4
+    starts = np.array([s[0] for s in slits])
+    assert np.allclose(np.sort(starts, axis=0), np.sort(CORNERS, axis=0))
+    for s in slits:
+        _, d = project_to_polyline(s[-1][None], domain[0])
+        assert d[0] < 1e-6  # ends on the mesh's outline
+        # it runs into the concave corner's paper (diagonally away from the square), not along either bar
+        corner = s[0]
+        out = np.sign(corner - CORNERS.mean(axis=0))
+        step = s[-1] - corner
+        assert (np.sign(step) == out).all()
+        ts = np.linspace(0, 1, 50)[:, None]
+        pts = np.vstack([a + ts * (b - a) for a, b in zip(s[:-1], s[1:])])
+        inked = cov[np.round(pts[:, 1]).astype(int).clip(0, SIZE - 1), np.round(pts[:, 0]).astype(int).clip(0, SIZE - 1)]
+        length = np.linalg.norm(np.diff(s, axis=0), axis=1).sum()
+        assert inked.mean() * length <= MAX_INK_PX + 1.0
+
+
+@pytest.mark.parametrize("between", [0, 1])
+def test_no_slit_between_joined_parts(between):
+    """Bars whose bones share a joint (0), or a neighbouring bone (1: an upper arm under a sleeve's shoulder),
+    are one body at the junction: no slit."""
+    cov, domain, bounds, juncs, front, pose, skeleton, apart = crossing(between=between)
+    assert junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, apart) == []
+
+
+def test_no_slit_where_the_way_out_crosses_a_fill():
+    """A junction deep inside the character (no paper within reach) gets no slit."""
+    cov, domain, bounds, juncs, front, pose, skeleton, apart = crossing(between=3)
+    cov[:] = 1.0
+    full = [np.array([[0.0, 0.0], [SIZE - 1.0, 0.0], [SIZE - 1.0, SIZE - 1.0], [0.0, SIZE - 1.0]])]
+    assert junction_slits(bounds, juncs, front, full, cov, pose, skeleton, apart) == []
+
+
+def test_no_slit_where_the_part_stays_on_the_body():
+    """A part that the other keyframe leaves on the body it crosses (moved along it by less than SEPARATE_PX)
+    stays sewn at its junctions."""
+    cov, domain, bounds, juncs, front, pose, skeleton, _ = crossing(between=3)
+    along = pose.copy()
+    along[-2:, :2] += [0.0, 8.0]  # slid 8 px down the vertical bar: still across it
+    assert junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, along) == []
+    assert junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, pose) == []
