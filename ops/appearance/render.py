@@ -81,16 +81,19 @@ def affine_maps(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
     return np.concatenate([lin, trans[:, :, None]], axis=2)
 
 
-def back_map(ids: np.ndarray, X: np.ndarray, rest: np.ndarray, faces: np.ndarray,
-             scale: int) -> tuple[np.ndarray, np.ndarray]:
-    """ids (H*s, W*s) -> float32 map_x, map_y: for every covered sample, the rest position of its PIXEL's centre
-    under the sample's face (-1e4 where empty).
+def rest_maps(X: np.ndarray, rest: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m, 2, 3) float32 affine map of every face from its deformed position X (n, 2) back to rest (n, 2)."""
+    return affine_maps(np.asarray(X, np.float64)[faces], np.asarray(rest, np.float64)[faces]).astype(np.float32)
+
+
+def back_map(ids: np.ndarray, A: np.ndarray, scale: int) -> tuple[np.ndarray, np.ndarray]:
+    """ids (H*s, W*s), A (m, 2, 3) rest_maps -> float32 map_x, map_y: for every covered sample, the rest
+    position of its PIXEL's centre under the sample's face (-1e4 where empty).
 
     The supersamples decide which faces cover a pixel and by how much (coverage anti-aliasing); each face
     is read at the pixel centre, so an undeformed template reproduces its texture exactly instead of
     blurring it by the sample spread.
     """
-    A = affine_maps(np.asarray(X, np.float64)[faces], np.asarray(rest, np.float64)[faces]).astype(np.float32)
     h, w = ids.shape
     px = (np.arange(w) // scale).astype(np.float32)[None, :]
     py = (np.arange(h) // scale).astype(np.float32)[:, None]
@@ -165,7 +168,8 @@ class Renderer:
         tpl = self.textured.template
         order = depth_order(self.textured, pose, self.groups)
         ids = rasterize_ids(X, tpl.faces, order, shape, s)
-        pre, map_x, map_y, hidden = self._sample_ids(ids, X, s)
+        A = rest_maps(X, tpl.rest, tpl.faces)
+        pre, map_x, map_y, hidden = self._sample_ids(ids, A, s)
         if not self.slit:
             return pre, map_x, map_y, hidden, ids
         # the front sheet over itself (a slit limb across the body): a soft edge on top shows the sheet
@@ -180,10 +184,10 @@ class Renderer:
         ys, xs = np.nonzero(soft & (under >= 0) & (under != ids) & sheet.take(np.maximum(under, 0)))
         if len(ys):
             f = under[ys, xs]
-            A = affine_maps(np.asarray(X, np.float64)[tpl.faces[f]], tpl.rest[tpl.faces[f]])  # (k, 2, 3)
-            px, py = (xs // s).astype(np.float64), (ys // s).astype(np.float64)
-            bx = (A[:, 0, 0] * px + A[:, 0, 1] * py + A[:, 0, 2]).astype(np.float32)
-            by = (A[:, 1, 0] * px + A[:, 1, 1] * py + A[:, 1, 2]).astype(np.float32)
+            Af = A[f]  # (k, 2, 3): the face beneath, read at the sample's pixel centre as back_map reads
+            px, py = (xs // s).astype(np.float32), (ys // s).astype(np.float32)
+            bx = Af[:, 0, 0] * px + Af[:, 0, 1] * py + Af[:, 0, 2]
+            by = Af[:, 1, 0] * px + Af[:, 1, 1] * py + Af[:, 1, 2]
             # a neighbour sharing the sample on an edge (the fill is inclusive) reads the same drawing point
             apart = np.hypot(bx - map_x[ys, xs], by - map_y[ys, xs]) > 1.0
             ys, xs, f, bx, by = ys[apart], xs[apart], f[apart], bx[apart], by[apart]
@@ -195,9 +199,9 @@ class Renderer:
             pre[ys, xs] += (1.0 - pre[ys, xs, 3:4]) * below
         return pre, map_x, map_y, hidden, ids
 
-    def _sample_ids(self, ids: np.ndarray, X: np.ndarray, s: int):
-        tpl = self.textured.template
-        map_x, map_y = back_map(ids, X, tpl.rest, tpl.faces, s)
+    def _sample_ids(self, ids: np.ndarray, A: np.ndarray, s: int):
+        """Premultiplied RGBA, back map and hidden-face mask of face ids (H*s, W*s) under rest maps A (m, 2, 3)."""
+        map_x, map_y = back_map(ids, A, s)
         hidden = (ids >= 0) & (self.textured.face_source.take(np.maximum(ids, 0)) > 0)  # the back texture's faces
         # each texture is sampled only where it is selected (the other map points off-texture, giving 0),
         # so the two premultiplied results add up to the composite

@@ -51,9 +51,10 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> n
 
 
 def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], front_bones: list[np.ndarray],
-                   domain: list[np.ndarray], coverage: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
-                   other_pose: np.ndarray) -> list[np.ndarray]:
+                   regions: np.ndarray, domain: list[np.ndarray], coverage: np.ndarray, pose: np.ndarray,
+                   skeleton: Skeleton, other_pose: np.ndarray) -> list[np.ndarray]:
     """Open polylines (n, 2) float64 from T-junctions out through the paper to the mesh's outline (or a hole's).
+    regions: (H, W) bool pixels of the occlusion regions, which a slit does not cross.
 
     At a T-junction a part's outline passes in front of another body's. The region's cut stops there, on the
     drawn stroke, but the mesh reaches on past the outline (its soft rim and margin) and fills the concave
@@ -71,7 +72,6 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
     """
     h, w = coverage.shape
     inside = _fill(domain, (h, w))
-    regions = _fill(boundaries, (h, w))
     adjacent = skeleton.adjacent_bones()
     ends_xy = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
     other_ends = np.asarray(other_pose)[skeleton.bones, :2].astype(np.float64)
@@ -92,7 +92,7 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
             k = crossed[np.argmin(dist[crossed])]
             if (adjacent[f] & adjacent[k]).any():  # joined through one bone: a sleeve's shoulder, a skirt's hem
                 continue
-            there = _carried(p, ends_xy[f], other_ends[f])
+            there = _moved_with_bone(p, ends_xy[f], other_ends[f])
             if segment_distance(there, *other_ends[k]) - dist[k] < SEPARATE_PX * scale:
                 continue
             slit = _way_out(p, coverage, inside, regions, domain, reach)
@@ -101,7 +101,7 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
     return out
 
 
-def _carried(p: np.ndarray, bone: np.ndarray, bone_there: np.ndarray) -> np.ndarray:
+def _moved_with_bone(p: np.ndarray, bone: np.ndarray, bone_there: np.ndarray) -> np.ndarray:
     """(2,) point p moved rigidly with a bone from (2, 2) ends `bone` to `bone_there` (its length may change:
     the point keeps its fraction along the bone and its offset across it)."""
     a, b = bone

@@ -32,12 +32,14 @@ def crossing(between: int):
     front = [np.array([len(skeleton.bones) - 1])]
     apart = pose.copy()
     apart[-2:, :2] += [0.0, 90.0]  # the other keyframe: the horizontal bar well below the vertical one
-    return cov, domain, [CORNERS], [np.arange(4)], front, pose, skeleton, apart
+    region = np.zeros((SIZE, SIZE), bool)
+    region[33:48, 30:45] = True  # the crossing square's pixels
+    return cov, domain, [CORNERS], [np.arange(4)], front, region, pose, skeleton, apart
 
 
 def test_slits_leave_each_junction_through_the_corner_paper():
-    cov, domain, bounds, juncs, front, pose, skeleton, apart = crossing(between=3)
-    slits = junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, apart)
+    cov, domain, bounds, juncs, front, region, pose, skeleton, apart = crossing(between=3)
+    slits = junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, apart)
     assert len(slits) == 4
     starts = np.array([s[0] for s in slits])
     assert np.allclose(np.sort(starts, axis=0), np.sort(CORNERS, axis=0))
@@ -60,23 +62,23 @@ def test_slits_leave_each_junction_through_the_corner_paper():
 def test_no_slit_between_joined_parts(between):
     """Bars whose bones share a joint (0), or a neighbouring bone (1: an upper arm under a sleeve's shoulder),
     are one body at the junction: no slit."""
-    cov, domain, bounds, juncs, front, pose, skeleton, apart = crossing(between=between)
-    assert junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, apart) == []
+    cov, domain, bounds, juncs, front, region, pose, skeleton, apart = crossing(between=between)
+    assert junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, apart) == []
 
 
 def test_no_slit_where_the_way_out_crosses_a_fill():
     """A junction deep inside the character (no paper within reach) gets no slit."""
-    cov, domain, bounds, juncs, front, pose, skeleton, apart = crossing(between=3)
+    cov, domain, bounds, juncs, front, region, pose, skeleton, apart = crossing(between=3)
     cov[:] = 1.0
     full = [np.array([[0.0, 0.0], [SIZE - 1.0, 0.0], [SIZE - 1.0, SIZE - 1.0], [0.0, SIZE - 1.0]])]
-    assert junction_slits(bounds, juncs, front, full, cov, pose, skeleton, apart) == []
+    assert junction_slits(bounds, juncs, front, region, full, cov, pose, skeleton, apart) == []
 
 
 def test_no_slit_where_the_part_stays_on_the_body():
     """A part that the other keyframe leaves on the body it crosses (moved along it by less than SEPARATE_PX)
     stays sewn at its junctions."""
-    cov, domain, bounds, juncs, front, pose, skeleton, _ = crossing(between=3)
+    cov, domain, bounds, juncs, front, region, pose, skeleton, _ = crossing(between=3)
     along = pose.copy()
     along[-2:, :2] += [0.0, 8.0]  # slid 8 px down the vertical bar: still across it
-    assert junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, along) == []
-    assert junction_slits(bounds, juncs, front, domain, cov, pose, skeleton, pose) == []
+    assert junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, along) == []
+    assert junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, pose) == []
