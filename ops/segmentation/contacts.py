@@ -94,11 +94,14 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     if gap.any():
         nearest = np.full(foreground.shape, -1, np.int64)
         nearest[fy, fx] = np.argmin(bone_dist, axis=0)
+        # a side is within the gap's half width plus SIDE_PX: paper glued across a strip wider than two sides
+        # (a watercolour forearm a few pixels off the waist) still parts the bodies along its middle
+        reach = ndimage.distance_transform_edt(gap) + side
         # each reading of the gap's sides is tested alone: bones from two readings on one side are one body
         for owned in (_carried(foreground, body, ys, xs, owner), nearest):
             near_gap = np.zeros_like(near)
             for bone in np.unique(owned[owned >= 0]):
-                near_gap[bone] = (cv2.dilate((owned == bone).astype(np.uint8), disc) > 0) & gap
+                near_gap[bone] = gap & (ndimage.distance_transform_edt(owned != bone) <= reach)
             readings.append((near_gap, gap))
     cache: dict = {}  # the bodies' regions, only for bones joined around a short bone
     touching = np.zeros(foreground.shape, bool)

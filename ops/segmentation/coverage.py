@@ -61,12 +61,13 @@ def _distance_to(region: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform((~region).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
-def walk(delta: np.ndarray, depth: np.ndarray, rows: np.ndarray, cols: np.ndarray, steps: int
-         ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def walk(delta: np.ndarray, depth: np.ndarray, rows: np.ndarray, cols: np.ndarray, steps: int,
+         stop: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The strongest ink met walking from each of n pixels (rows, cols) `steps` one-pixel steps inward
     (steps < 0: outward), the pixel itself included: (n,) row, (n,) column and (n,) ΔE of it.
 
-    delta: (H, W) ΔE*ab from the paper; depth: (H, W) float32 signed distance into the character, pixels.
+    delta: (H, W) ΔE*ab from the paper; depth: (H, W) float32 signed distance into the character, pixels;
+    stop: (H, W) bool where a walk ends (the page, walking outward: ink beyond it is another body's).
     """
     gy, gx = np.gradient(depth)
     norm = np.maximum(np.hypot(gx[rows, cols], gy[rows, cols]), 1e-6)
@@ -74,11 +75,14 @@ def walk(delta: np.ndarray, depth: np.ndarray, rows: np.ndarray, cols: np.ndarra
     ux, uy = sign * gx[rows, cols] / norm, sign * gy[rows, cols] / norm
     h, w = delta.shape
     best_r, best_c, best = rows.copy(), cols.copy(), delta[rows, cols].copy()
+    going = np.ones(len(rows), bool)
     for t in range(1, abs(steps) + 1):
         r = np.clip(np.round(rows + t * uy).astype(np.int64), 0, h - 1)
         c = np.clip(np.round(cols + t * ux).astype(np.int64), 0, w - 1)
+        if stop is not None:
+            going &= ~stop[r, c]
         d = delta[r, c]
-        better = d > best
+        better = going & (d > best)
         best_r[better], best_c[better], best[better] = r[better], c[better], d[better]
     return best_r, best_c, best
 
@@ -114,8 +118,10 @@ def unmix(
     colour = rgb.astype(np.float32).copy()
     depth = to_page - _distance_to(solid)
     rows, cols = np.nonzero(fringe)
-    # a pixel with stronger ink between it and the page lies behind that stroke: it is covered
-    _, _, outward = walk(delta, depth, rows, cols, -fringe_px)
+    # a pixel with stronger ink between it and the page lies behind that stroke: it is covered. The walk
+    # ends at the page: from paper glued between two bodies it would cross a sliver of paper into the
+    # other body's edge and leave an opaque paper speck that travels with the limb
+    _, _, outward = walk(delta, depth, rows, cols, -fringe_px, stop=page)
     front = solid[rows, cols] & (outward > delta[rows, cols] + ink_delta)
     rows, cols = rows[~front], cols[~front]
     if len(rows):

@@ -12,6 +12,7 @@ from scipy import ndimage
 from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
 from ops.segmentation.contacts import stroke_contacts
+from ops.segmentation.domain import closed_holes
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
@@ -103,7 +104,9 @@ def build_masks(
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
-        contacts = stroke_contacts(drawing, body, pose, skeleton, glued=fg & ~body)
+        # glued paper: what the mesh holds that is no body, slivers of holes it closes over included
+        held = fg if seg.holes is None else fg | closed_holes(fg, seg.coverage, seg.holes)
+        contacts = stroke_contacts(drawing, body, pose, skeleton, glued=held & ~body)
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w

@@ -1,6 +1,8 @@
 """Tests of ops.segmentation.contacts: touching bodies found on the drawing's strokes, thin overlaps, slits."""
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 
@@ -12,6 +14,7 @@ from ops.segmentation.slits import AVOID_PX, slit_of
 from ops.types import Skeleton
 from tests.ops.segmentation.test_masks import capsule, ink_drawing, outline
 
+SAMPLES = Path(__file__).resolve().parents[3] / "data_samples"
 SIZE = 160
 SKELETON = Skeleton(("hips", "neck", "shoulder", "elbow", "hand"), np.array([-1, 0, 1, 2, 3]))
 
@@ -91,6 +94,31 @@ def test_paper_glued_between_painted_bodies_is_a_contact():
     assert pieces
     ys, xs = np.nonzero(np.any(pieces, axis=0))
     assert ((xs >= 56) & (xs <= 60)).all()  # in the gap (57-59) or on its edges
+    assert ys.max() - ys.min() >= 50  # along the forearm and upper arm
+
+
+def test_paper_glued_wider_than_both_sides_parts_the_bodies_along_its_middle():
+    """A watercolour forearm 7 px off the waist, the gap closed over by the foreground: no pixel of the gap lies
+    within SIDE_PX of both bodies, but its middle is within its half width plus SIDE_PX of each. Without the
+    half width the arm stays glued to the torso along the whole gap."""
+    shape = (SIZE, SIZE)
+    torso = capsule(shape, (80, 40), (80, 125), 20)
+    x = 44.0  # the arm's right edge at 52, the torso's left at 60
+    arm = capsule(shape, (x, 48), (x, 86), 8) | capsule(shape, (x, 86), (x, 122), 8)
+    shoulder = capsule(shape, (x, 48), (66, 40), 6)
+    painted = torso | arm | shoulder
+    drawing = np.ones(shape + (3,), np.float32)
+    drawing[torso] = (0.93, 0.55, 0.65)
+    drawing[arm | shoulder] = (0.96, 0.84, 0.74)
+    closed = cv2.morphologyEx(painted.astype(np.uint8), cv2.MORPH_CLOSE,
+                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (13, 13))).astype(bool)
+    gap = closed & ~painted
+    assert gap[80, 53:60].all()  # the foreground closed the whole 7 px
+    pose = np.array([[80, 125, 0], [80, 40, 0], [x, 48, -0.5], [x, 86, -0.5], [x + 8, 122, -0.5]], float)
+    pieces = stroke_contacts(drawing, painted, pose, SKELETON, glued=gap)
+    assert pieces
+    ys, xs = np.nonzero(np.any(pieces, axis=0))
+    assert ((xs >= 53) & (xs <= 59)).all()  # inside the gap
     assert ys.max() - ys.min() >= 50  # along the forearm and upper arm
 
 
@@ -201,3 +229,20 @@ def test_a_thick_crayon_outline_is_one_stroke_on_a_large_drawing(monkeypatch):
     assert stroke_contacts(drawing, body, pose, skeleton) == []
     monkeypatch.setattr(contacts_mod, "scale_of", lambda shape: 1.0)
     assert stroke_contacts(drawing, body, pose, skeleton)
+
+
+def test_the_watercolour_forearm_parts_from_the_waist_along_the_whole_gap():
+    """data_samples/watercolour, key0: the right forearm hangs 3-9 px off the shirt and skirt with only paper
+    between. Where the gap is widest a sliver of it is a hole of the foreground that the mesh closes over; both
+    must count as glued paper, or the contact breaks at the waist (y 111-117) and the forearm drags the skirt."""
+    from ops.shotio.image_io import read_image, to_rgba
+    from ops.shotio.load import load_shot
+
+    shot = load_shot(SAMPLES / "watercolour")
+    masks = build_masks(to_rgba(read_image(shot.keyframes[0])), shot.key_pose(0), shot.skeleton)
+    spans = []
+    for piece in masks.contacts:
+        ys, xs = np.nonzero(piece)
+        if xs.max() < 120:  # the right arm's side of the body (image left)
+            spans.append((ys.min(), ys.max()))
+    assert any(top <= 104 and bottom >= 135 for top, bottom in spans), spans

@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 
 from ops.geometry.mesh import points_in_domain, polygon_area
-from ops.segmentation.domain import mesh_domain
+from ops.segmentation.domain import closed_holes, mesh_domain
 from ops.segmentation.masks import build_masks
 from ops.shotio.image_io import read_image
 from ops.shotio.load import load_shot
@@ -59,6 +59,24 @@ def test_a_narrow_hole_stays_open():
     assert points_in_domain(_pixels(fg), loops).all()
     core = slit & ~(cv2.dilate(fg.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0)
     assert core.sum() == 2 * 18 and not points_in_domain(_pixels(core), loops).any()  # all but a pixel of margin
+
+
+def test_a_sliver_of_paper_is_closed_over_and_a_wide_hole_stays_open():
+    """Paper 2 px wide between two bodies gets no hole in the mesh (a pixel of margin on each side closes it):
+    closed_holes says the mesh holds it, as contacts must know. A 6 px hole stays open, all but its margin."""
+    fg = np.zeros((60, 90), bool)
+    fg[10:50, 10:80] = True
+    sliver, wide = np.zeros_like(fg), np.zeros_like(fg)
+    sliver[20:40, 28:30] = True
+    wide[20:40, 57:63] = True
+    fg &= ~(sliver | wide)
+    cov = fg.astype(np.float32)
+    closed = closed_holes(fg, cov, sliver | wide)
+    assert (closed & sliver).sum() == sliver.sum()
+    loops, _ = mesh_domain(fg, cov, sliver | wide)
+    assert points_in_domain(_pixels(sliver), loops).all()  # the mesh does hold it
+    open_core = _pixels(wide & ~closed)  # all but the margin (the simplified outline blurs its edge pixels)
+    assert len(open_core) >= 2 * 16 and points_in_domain(open_core, loops).mean() < 0.25
 
 
 def test_every_hole_seed_lies_outside_the_simplified_domain():

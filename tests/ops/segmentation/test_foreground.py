@@ -344,3 +344,27 @@ def test_tight_manual_mask_keeps_the_outline_drawn_width():
     everywhere = np.ones(tight.shape, bool)
     assert psnr(recomposed(fg), drawing, everywhere) >= 40
     assert (fg.coverage[ndimage.distance_transform_edt(~tight) > MARGIN_PX + 1] == 0).all()
+
+
+def test_paper_glued_between_two_bodies_has_no_opaque_specks():
+    """Two painted bars 7 px apart, the gap inside the silhouette (closed over) but for a 1 px sliver of paper
+    down its middle. Walking outward from a gap pixel crosses the sliver into the other bar's edge; the walk
+    must end at the page, or that pixel reads as covered by a stroke and stays an opaque paper speck."""
+    from ops.segmentation.coverage import unmix
+
+    h, w = 40, 48
+    solid = np.zeros((h, w), bool)
+    solid[5:35, 10:37] = True
+    solid[5:35, 23] = False  # the sliver: page
+    bars = np.zeros_like(solid)
+    bars[5:35, 10:20] = bars[5:35, 27:37] = True
+    paper = np.full((h, w, 3), (0.95, 0.94, 0.90), np.float32)
+    rgb = paper.copy()
+    rgb[bars] = (0.93, 0.55, 0.65)
+    rgb[solid & ~bars] += 0.01  # the paper's grain: above the paper threshold, far below ink
+    delta = np.where(bars, 30.0, np.where(solid, 1.5, 0.2)).astype(np.float32)
+    ink = delta > 4.0
+    coverage, _ = unmix(rgb, paper, solid, solid, ink, ink, delta, 4.0, 1.0)
+    gap = solid & ~bars
+    assert coverage[gap].max() < 0.5
+    assert (coverage[bars] == 1).all()
