@@ -17,7 +17,7 @@ import numpy as np
 import torch
 from scipy import ndimage
 
-from ops.segmentation.bones import bone_depths, bone_radii
+from ops.segmentation.bones import bone_depths, bone_radii, thick_regions
 from ops.segmentation.network_input import from_work, network_input, resample, to_work
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.segmentation.occlusion_net import load_network
@@ -95,11 +95,29 @@ def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
     return front_bones_of(*region_votes(region, pose, skeleton, radii), len(skeleton.bones))
 
 
-def is_joint_overlap(main: int, back: np.ndarray, skeleton: Skeleton) -> bool:
-    """Whether a region is where two bones that share a joint overlap (the round ends at an elbow, a shoulder,
-    a hip): the bone most often behind it (back: its votes) is a neighbour of its main front bone."""
-    behind = int(np.argmax(np.bincount(back, minlength=len(skeleton.bones))))
-    return behind != main and bool(skeleton.adjacent_bones()[behind, main])
+def joined_pixels(mask: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                  radii: np.ndarray) -> np.ndarray:
+    """(H, W) bool pixels of a (H, W) bool mask where the two bones meeting there are joined, read as the skeleton
+    rule reads them (ops.segmentation.occlusion): they share a joint (the round ends at an elbow, a hip), or a
+    neighbouring bone whose body holds the pixel (spine - clavicle - upper arm; a thick tail's short segments,
+    each over the next but one). That is a joint the mesh bends at, not an occlusion; a pocket there opened as
+    a dark blob when the limb moved, and a curled tail's joints made one pocket of the whole tail.
+    radii: (B,) body radii, pixels."""
+    ys, xs = np.nonzero(mask)
+    out = np.zeros(mask.shape, bool)
+    if len(xs) == 0 or len(skeleton.bones) < 2:
+        return out
+    front, back = front_and_back(np.stack([xs, ys], axis=1), pose, skeleton, radii)
+    adjacent = skeleton.adjacent_bones()
+    joined = adjacent[front, back]
+    between = adjacent[front] & adjacent[back]  # (N, B) bones next to both
+    between[np.arange(len(xs)), front] = False  # a bone is its own neighbour
+    between[np.arange(len(xs)), back] = False
+    if between.any():
+        thick = thick_regions(foreground, pose, skeleton)
+        joined |= (between & thick[:, ys, xs].T).any(axis=1)
+    out[ys[joined], xs[joined]] = True
+    return out
 
 
 def edge_map(colour: np.ndarray) -> np.ndarray:
@@ -146,7 +164,7 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
 
     The network, the fallback and the front bones work at the network's working scale (the character about
     WORK_EXTENT_PX across); only the final mask is brought back to the keyframe's resolution.
-    joint_overlaps False leaves out the regions where two bones that share a joint overlap (is_joint_overlap).
+    joint_overlaps False leaves out the pixels where two joined bones meet (joined_pixels).
     """
     image = drawing if drawing.dtype == np.uint8 and drawing.ndim == 3 else to_uint8(drawing)
     fg = np.asarray(foreground, bool)
@@ -162,9 +180,11 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
     marked = (prob[:h, :w] > THRESHOLD) & wfg
     extra, _, warnings = flat_fallback(x[:3, :h, :w], marked, wfg, wpose, skeleton)
     mask = (from_work((marked | extra).astype(np.float32), frame, fg.shape) > 0.5) & fg
+    radii = bone_radii(wfg, wpose, skeleton) / frame.zoom  # a body's radius in keyframe pixels
+    if not joint_overlaps:
+        mask &= ~joined_pixels(mask, fg, pose, skeleton, radii)
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
-    radii = bone_radii(wfg, wpose, skeleton) / frame.zoom  # a body's radius in keyframe pixels
     depth = bone_depths(pose, skeleton)
     regions, fronts, keys = [], [], []
     for lab, box in enumerate(ndimage.find_objects(labels), start=1):
@@ -174,8 +194,6 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
         region[box] = labels[box] == lab
         votes_front, votes_back = region_votes(region, pose, skeleton, radii)
         main, front = front_bones_of(votes_front, votes_back, len(skeleton.bones))
-        if not joint_overlaps and is_joint_overlap(main, votes_back, skeleton):
-            continue
         regions.append(region)
         fronts.append(front)
         keys.append(-depth[main])  # larger z (farther) first: back to front
