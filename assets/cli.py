@@ -22,7 +22,7 @@ import traceback
 from pathlib import Path
 
 from ops.errors import ShotError
-from ops.settings import Settings
+from ops.settings import OCCLUSION_PREDICTORS, Settings
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -38,9 +38,9 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
 
     def occlusion_flag(p):
-        p.add_argument("--occlusion", choices=["skeleton", "drawing"], default=Settings().occlusion,
-                       help="predict occlusion masks from the skeleton alone, or read them off the drawing (a small "
-                            "network, the skeleton as a guide)")
+        p.add_argument("--occlusion", choices=OCCLUSION_PREDICTORS, default=Settings().occlusion,
+                       help="predict occlusion masks from the skeleton alone, the skeleton's shaped by the drawing "
+                            "(hybrid), or read them off the drawing (a small network, the skeleton as a guide)")
 
     def method_flags(p):
         p.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")

@@ -1,4 +1,4 @@
-"""Occlusion masks (issue 15): IoU of the drawing predictor and of the skeleton rule, timing, end-to-end PSNR.
+"""Occlusion masks (issue 15): IoU of the drawing predictor, the hybrid and the skeleton rule, timing, end to end.
 
     python benchmarks/bench_occlusion.py                       # 100 test samples, the sample shots' keys, timing
     python benchmarks/bench_occlusion.py --n 250 --rows        # more samples, one row per keyframe
@@ -10,9 +10,12 @@ Every predictor runs twice: given the true foreground (so the numbers do not dep
 segmentation) and given the foreground that ops.segmentation.foreground predicts. The test split
 (seeds 10 000 000 + index) is never used for training or tuning.
 
-End to end (--e2e): each shot runs through the whole graph with Settings(occlusion="drawing") and with
-Settings(occlusion="skeleton") in a private INBETWEEN_HOME, then its evaluation group; printed are the mean
-PSNR over the interior frames of ours with each predictor and of RIFE applied directly to the keys.
+The hybrid (the default) is the skeleton rule's regions cut to the network's marks
+(ops.segmentation.occlusion_drawing.shape_by_drawing).
+
+End to end (--e2e): each shot runs through the whole graph with Settings(occlusion=m) for every predictor m in
+a private INBETWEEN_HOME, then its evaluation group; printed are the mean PSNR over the interior frames of ours
+with each predictor and of RIFE applied directly to the keys.
 """
 from __future__ import annotations
 
@@ -35,11 +38,12 @@ if str(ROOT) not in sys.path:
 from ops.segmentation.foreground import segment_foreground  # noqa: E402
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion  # noqa: E402
 from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion  # noqa: E402
+from ops.segmentation.occlusion_drawing import shape_by_drawing  # noqa: E402
 from ops.types import Skeleton  # noqa: E402
 
 OCCLUSION_SHOTS = ("arm_cross", "legs_cross", "tail", "two_poses", "watercolour", "flat_colour", "scan_jpeg",
                    "hand_on_hip", "lamp", "curled_tail")  # every sample shot with an occlusion in a keyframe
-METHODS = ("drawing", "skeleton")
+METHODS = ("drawing", "hybrid", "skeleton")
 
 
 def iou(a: np.ndarray, b: np.ndarray) -> float:
@@ -62,6 +66,8 @@ def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, sk
         regions = drawing_occlusion(image, fg, pose, skeleton)[0]
     else:
         regions = skeleton_occlusion(fg, pose, skeleton)[0]
+        if method == "hybrid":
+            regions = shape_by_drawing(regions, image, fg, pose, skeleton)[0]
     return union_of(regions, fg.shape)
 
 
@@ -179,10 +185,10 @@ def end_to_end(shots: list[str]) -> None:
             results[name][f"{m} regions"] = len(masks.occlusion)
             print(f"{name}: occlusion={m}: ours {psnr['ours']:.2f} dB, RIFE-direct {psnr['rife_direct']:.2f} dB "
                   f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    print("\n| shot | ours, drawing predictor | ours, skeleton rule | RIFE direct |\n|---|---|---|---|")
+    print("\n| shot | " + " | ".join(f"ours, {m}" for m in METHODS) + " | RIFE direct |\n|---|" + "---|" * len(METHODS) + "---|")
     for name in shots:
         r = results[name]
-        print(f"| {name} | {r['drawing']:.2f} | {r['skeleton']:.2f} | {r['rife_direct']:.2f} |")
+        print(f"| {name} | " + " | ".join(f"{r[m]:.2f}" for m in METHODS) + f" | {r['rife_direct']:.2f} |")
 
 
 REALDEV = ROOT.parent / "shared" / "realdev" / "animated_drawings"

@@ -1,7 +1,7 @@
 """The mask layers the annotation view shows: predicted masks (to start from) and refined masks (§4.1).
 
 Predicted: the stored `key{k}/masks` output when it was computed from the current drawing and pose with
-no manual mask, otherwise the prediction itself (ops.segmentation.masks.build_masks without manual
+no manual mask and the same occlusion predictor (Settings.occlusion), otherwise the prediction itself (ops.segmentation.masks.build_masks without manual
 masks), cached by the drawing's and pose's content versions. A shot the loader refuses still gets its
 prediction from the drawing, skeleton and key pose alone. Refined: the stored `key{k}/refined_masks`,
 with its boundaries as polylines; the page marks it stale when the plan says so.
@@ -15,6 +15,7 @@ import numpy as np
 
 from ops.errors import ShotError
 from ops.segmentation.masks import build_masks
+from ops.settings import Settings
 from ops.shotio.image_io import read_image, to_rgba
 from ops.shotio.load import load_shot, parse_poses, parse_skeleton, read_shot_json
 from ops.shotio.versions import source_versions
@@ -24,11 +25,15 @@ from resources.store import Store
 from .shotfile import keyframe_names
 
 
-def _stored_prediction(store: Store, partition: str, shot: Shot, k: int, sources: dict) -> Masks | None:
-    """key{k}/masks from the store if it predicted everything from exactly the current drawing and pose."""
+def _stored_prediction(store: Store, partition: str, shot: Shot, k: int, sources: dict, occlusion: str
+                       ) -> Masks | None:
+    """key{k}/masks from the store if it predicted everything from exactly the current drawing and pose, with
+    the same occlusion predictor."""
     name = f"key{k}/masks"
     digest, recorded = store.provenance(name, partition)
     if digest is None or not recorded or shot.foreground_masks[k] or shot.occlusion_masks[k]:
+        return None
+    if recorded.get("settings", {}).get("occlusion", occlusion) != occlusion:
         return None
     parents = recorded.get("parents", {})
     if any(parents.get(p) != sources[p] for p in (f"key{k}/drawing", f"key{k}/pose")):
@@ -51,8 +56,8 @@ def key_inputs(shot_dir: Path, k: int) -> tuple[Path, np.ndarray, Skeleton]:
 class Predictions:
     """Predicted masks per keyframe, keyed by what they are computed from."""
 
-    def __init__(self, store: Store, partition: str):
-        self.store, self.partition = store, partition
+    def __init__(self, store: Store, partition: str, occlusion: str = Settings().occlusion):
+        self.store, self.partition, self.occlusion = store, partition, occlusion
         self._cache: dict[tuple, tuple[Masks, str]] = {}
         self._lock = threading.Lock()
 
@@ -72,12 +77,13 @@ class Predictions:
         with self._lock:
             if key in self._cache:
                 return self._cache[key]
-            stored = _stored_prediction(self.store, self.partition, shot, k, sources) if shot is not None else None
+            stored = (_stored_prediction(self.store, self.partition, shot, k, sources, self.occlusion)
+                      if shot is not None else None)
             if stored is not None:
                 out = (stored, "store")
             else:
                 drawing = to_rgba(read_image(drawing_path, f"keyframes[{k}]"))
-                out = (build_masks(drawing, pose, skeleton), "computed")
+                out = (build_masks(drawing, pose, skeleton, occlusion=self.occlusion), "computed")
             self._cache = {key: out, **{c: v for c, v in self._cache.items() if c[0] != k}}
             return out
 

@@ -37,7 +37,7 @@ class EditorState:
         self.save_lock = threading.Lock()
         self.reruns = Reruns(self.shot_dir, self.partition, self.workdir, home(), ROOT, rerun_command)
         self.reposers = Reposers(self.store, self.partition, self.settings.mu, self.settings.grad_tol)
-        self.predictions = Predictions(self.store, self.partition)
+        self.predictions = Predictions(self.store, self.partition, self.settings.occlusion)
         self.results = Results(self.store, self.partition)
 
     def _claim(self, url: str):

@@ -16,10 +16,10 @@ from ops.segmentation.domain import closed_holes
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
+from ops.settings import OCCLUSION_PREDICTORS
 from ops.types import Masks, Skeleton
 
 NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
-OCCLUSION_PREDICTORS = ("drawing", "skeleton")  # Settings.occlusion
 
 
 def pose_warnings(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> list[str]:
@@ -81,7 +81,8 @@ def build_masks(
     """Masks of a (H, W, C) float32 drawing at a (J, 3) pose; manual masks ((H, W) bool/float) override.
 
     manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
-    those regions. `occlusion` picks the predictor (Settings.occlusion): "drawing" or "skeleton". `source`
+    those regions. `occlusion` picks the predictor (Settings.occlusion): "skeleton", "hybrid" (the skeleton rule's
+regions shaped by the drawing) or "drawing". `source`
     names the keyframe file in errors.
     """
     if occlusion not in OCCLUSION_PREDICTORS:
@@ -103,6 +104,11 @@ def build_masks(
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
+        if occlusion == "hybrid" and regions:
+            from ops.segmentation.occlusion_drawing import shape_by_drawing  # torch: only here
+
+            regions, w = shape_by_drawing(regions, drawing, body, pose, skeleton)
+            warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included
         held = fg if seg.holes is None else fg | closed_holes(fg, seg.coverage, seg.holes)

@@ -32,6 +32,8 @@ MIN_FRONT_SHARE = 0.15  # a bone in front on this share of a region is one of it
 EDGE_LEVEL = 0.08  # colour step (0-1 scale) that counts as a stroke or colour edge: evidence in the drawing
 MAX_FLAT_EDGE_SHARE = 0.01  # a region whose pixels are edges less often than this shows nothing
 MAX_VOTERS = 4000  # pixels of a region that vote on its front bones
+MIN_MARKED_SHARE = 0.2  # a skeleton rule's region the network marks this much of is shaped by the marks
+NEAR_MARK_PX = 2  # ... keeping its pixels this near a mark
 
 
 def to_uint8(drawing: np.ndarray) -> np.ndarray:
@@ -157,19 +159,17 @@ def flat_fallback(colour: np.ndarray, marked: np.ndarray, foreground: np.ndarray
     return out, kept, warnings
 
 
-def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
-                      joint_overlaps: bool = True) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
-    """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (b,)
-    int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther).
+def occlusion_marks(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
+                    ) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(H, W) bool pixels of a (H, W, C) float32 or uint8 drawing where one part covers another (the network's
+    mask, with the skeleton rule's regions where the drawing shows nothing), (B,) body radii in keyframe pixels,
+    and warnings. foreground: (H, W) bool; pose: (J, 3).
 
-    The network, the fallback and the front bones work at the network's working scale (the character about
-    WORK_EXTENT_PX across); only the final mask is brought back to the keyframe's resolution.
-    joint_overlaps False leaves out the pixels where two joined bones meet (joined_pixels).
+    The network and the fallback work at the network's working scale (the character about WORK_EXTENT_PX
+    across); only the mask is brought back to the keyframe's resolution.
     """
     image = drawing if drawing.dtype == np.uint8 and drawing.ndim == 3 else to_uint8(drawing)
     fg = np.asarray(foreground, bool)
-    if not fg.any() or len(skeleton.bones) == 0:
-        return [], [], []
     x, frame = network_input(image, fg, pose, skeleton)
     with torch.inference_mode():
         prob = torch.sigmoid(load_network()(torch.from_numpy(x)[None]))[0, 0].numpy()
@@ -181,6 +181,21 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
     extra, _, warnings = flat_fallback(x[:3, :h, :w], marked, wfg, wpose, skeleton)
     mask = (from_work((marked | extra).astype(np.float32), frame, fg.shape) > 0.5) & fg
     radii = bone_radii(wfg, wpose, skeleton) / frame.zoom  # a body's radius in keyframe pixels
+    return mask, radii, warnings
+
+
+def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                      joint_overlaps: bool = True) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (b,)
+    int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther).
+
+    The mask is occlusion_marks'; joint_overlaps False leaves out the pixels where two joined bones meet
+    (joined_pixels).
+    """
+    fg = np.asarray(foreground, bool)
+    if not fg.any() or len(skeleton.bones) == 0:
+        return [], [], []
+    mask, radii, warnings = occlusion_marks(drawing, fg, pose, skeleton)
     if not joint_overlaps:
         mask &= ~joined_pixels(mask, fg, pose, skeleton, radii)
     labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
@@ -199,3 +214,23 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
         keys.append(-depth[main])  # larger z (farther) first: back to front
     order = np.argsort(np.array(keys), kind="stable")
     return [regions[i] for i in order], [fronts[i] for i in order], warnings
+
+
+def shape_by_drawing(regions: list[np.ndarray], drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
+                     skeleton: Skeleton) -> tuple[list[np.ndarray], list[str]]:
+    """The skeleton rule's (H, W) bool regions shaped by the drawing: each that the network marks on at least
+    MIN_MARKED_SHARE of its pixels is cut to the marks (within NEAR_MARK_PX), the rest kept as they are.
+
+    The rule's region is where two bodies, drawn as capsules around their bones, overlap: a forearm's capsule
+    across a watercolour shirt is wider than the painted forearm, and the band of shirt it takes moves with the
+    arm. The drawing says where the forearm's edge runs. Where the rule finds no occlusion the marks are not
+    taken (a thick tail's segments, a skirt's hem over the thighs); where the network saw nothing of a region
+    (a flat silhouette) the rule stands. Front bones and order stay the rule's.
+    """
+    fg = np.asarray(foreground, bool)
+    if not regions or not fg.any():
+        return list(regions), []
+    marked, _, warnings = occlusion_marks(drawing, fg, pose, skeleton)
+    near = ndimage.binary_dilation(marked, structure=np.ones((3, 3), bool), iterations=NEAR_MARK_PX)
+    shaped = [r & near if (r & marked).sum() >= MIN_MARKED_SHARE * r.sum() else r for r in regions]
+    return shaped, warnings

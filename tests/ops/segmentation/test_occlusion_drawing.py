@@ -169,3 +169,50 @@ def test_a_thick_tail_is_not_one_pocket():
     shot = load_shot(Path(__file__).resolve().parents[3] / "data_samples" / "curled_tail")
     masks = build_masks(to_rgba(read_image(shot.keyframes[0])), shot.key_pose(0), shot.skeleton, occlusion="drawing")
     assert sum(int(r.sum()) for r in masks.occlusion) < 400
+
+
+def test_hybrid_cuts_the_rules_regions_to_the_drawings_marks(monkeypatch):
+    """shape_by_drawing keeps the skeleton rule's regions and their order, cuts each the network marks enough of
+    to the marks (within NEAR_MARK_PX), leaves one it saw little of alone, and adds no marks outside them."""
+    from ops.segmentation import occlusion_drawing as od
+
+    h, w = 60, 80
+    wide, missed = np.zeros((h, w), bool), np.zeros((h, w), bool)
+    wide[10:30, 10:40] = True  # the rule's capsule overlap: 20 rows
+    missed[40:50, 50:70] = True
+    marks = np.zeros((h, w), bool)
+    marks[16:24, 10:40] = True  # the drawn forearm: 8 rows of it
+    marks[42:44, 50:52] = True  # a speck of the second: too little to reshape it
+    marks[0:5, 70:80] = True  # a mark the rule has no region for
+    monkeypatch.setattr(od, "occlusion_marks", lambda *a: (marks, np.ones(1), []))
+    fg = np.ones((h, w), bool)
+    shaped, _ = od.shape_by_drawing([wide, missed], np.ones((h, w, 3), np.float32), fg, np.zeros((2, 3)),
+                                    Skeleton(("a", "b"), np.array([-1, 0])))
+    rows = np.nonzero(shaped[0].any(axis=1))[0]
+    assert (rows.min(), rows.max()) == (16 - od.NEAR_MARK_PX, 23 + od.NEAR_MARK_PX)
+    assert not (shaped[0] & ~wide).any()
+    assert np.array_equal(shaped[1], missed)
+    assert not shaped[0][0:5, 70:80].any() and not shaped[1][0:5, 70:80].any()
+
+
+def test_hybrid_fits_the_watercolour_forearm_better_than_the_rule():
+    """data_samples/watercolour, key1: the forearm lies across the shirt. The rule's capsule takes a band of shirt
+    above and below the painted arm (that band travelled with the arm in key1's lane); shaped by the drawing the
+    region is smaller and nearer the ground truth, and still holds most of it."""
+    from pathlib import Path
+
+    from ops.shotio.image_io import read_image, to_rgba
+    from ops.shotio.load import load_shot
+
+    root = Path(__file__).resolve().parents[3] / "data_samples" / "watercolour"
+    shot = load_shot(root)
+    drawing, pose = to_rgba(read_image(shot.keyframes[1])), shot.key_pose(1)
+    truth = read_image(root / "gt_occ" / "key1_occ1.png")
+    truth = (truth[..., 0] if truth.ndim == 3 else truth) > 0.5
+    best = {}
+    for mode in ("skeleton", "hybrid"):
+        regions = build_masks(drawing, pose, shot.skeleton, occlusion=mode).occlusion
+        best[mode] = max(regions, key=lambda r: iou(r, truth))
+    assert best["hybrid"].sum() < 0.85 * best["skeleton"].sum()
+    assert iou(best["hybrid"], truth) > iou(best["skeleton"], truth)
+    assert (best["hybrid"] & truth).sum() >= 0.85 * truth.sum()
