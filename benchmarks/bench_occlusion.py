@@ -67,7 +67,7 @@ def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, sk
     else:
         regions = skeleton_occlusion(fg, pose, skeleton)[0]
         if method == "hybrid":
-            regions = shape_by_drawing(regions, image, fg, pose, skeleton)[0]
+            regions = shape_by_drawing(regions, image, fg, pose, skeleton)
     return union_of(regions, fg.shape)
 
 

@@ -217,7 +217,7 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
 
 
 def shape_by_drawing(regions: list[np.ndarray], drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
-                     skeleton: Skeleton) -> tuple[list[np.ndarray], list[str]]:
+                     skeleton: Skeleton) -> list[np.ndarray]:
     """The skeleton rule's (H, W) bool regions shaped by the drawing: each that the network marks on at least
     MIN_MARKED_SHARE of its pixels is cut to the marks (within NEAR_MARK_PX), the rest kept as they are.
 
@@ -225,12 +225,12 @@ def shape_by_drawing(regions: list[np.ndarray], drawing: np.ndarray, foreground:
     across a watercolour shirt is wider than the painted forearm, and the band of shirt it takes moves with the
     arm. The drawing says where the forearm's edge runs. Where the rule finds no occlusion the marks are not
     taken (a thick tail's segments, a skirt's hem over the thighs); where the network saw nothing of a region
-    (a flat silhouette) the rule stands. Front bones and order stay the rule's.
+    (a flat silhouette) the rule stands. Front bones and order stay the rule's, and so do its warnings (the
+    marks' own fallback reruns the rule and would repeat them).
     """
     fg = np.asarray(foreground, bool)
     if not regions or not fg.any():
-        return list(regions), []
-    marked, _, warnings = occlusion_marks(drawing, fg, pose, skeleton)
+        return list(regions)
+    marked = occlusion_marks(drawing, fg, pose, skeleton)[0]
     near = ndimage.binary_dilation(marked, structure=np.ones((3, 3), bool), iterations=NEAR_MARK_PX)
-    shaped = [r & near if (r & marked).sum() >= MIN_MARKED_SHARE * r.sum() else r for r in regions]
-    return shaped, warnings
+    return [r & near if (r & marked).sum() >= MIN_MARKED_SHARE * r.sum() else r for r in regions]

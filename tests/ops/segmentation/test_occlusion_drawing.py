@@ -186,7 +186,7 @@ def test_hybrid_cuts_the_rules_regions_to_the_drawings_marks(monkeypatch):
     marks[0:5, 70:80] = True  # a mark the rule has no region for
     monkeypatch.setattr(od, "occlusion_marks", lambda *a: (marks, np.ones(1), []))
     fg = np.ones((h, w), bool)
-    shaped, _ = od.shape_by_drawing([wide, missed], np.ones((h, w, 3), np.float32), fg, np.zeros((2, 3)),
+    shaped = od.shape_by_drawing([wide, missed], np.ones((h, w, 3), np.float32), fg, np.zeros((2, 3)),
                                     Skeleton(("a", "b"), np.array([-1, 0])))
     rows = np.nonzero(shaped[0].any(axis=1))[0]
     assert (rows.min(), rows.max()) == (16 - od.NEAR_MARK_PX, 23 + od.NEAR_MARK_PX)
