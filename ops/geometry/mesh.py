@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import triangle as tr
 
+from ops.geometry.polygon import points_in_polygon, project_to_polyline
+
 # Coordinates closer than this (pixels) are treated as the same vertex.
 _MERGE_GRID = 1e-7
 
@@ -57,39 +59,6 @@ def face_stretch(rest: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
         s_min = det / s_max
         stretch = np.maximum(s_max, 1.0 / s_min)
     return np.where(np.isfinite(stretch), stretch, np.inf)
-
-
-def polygon_area(P: np.ndarray) -> float:
-    """Signed area (pixels^2) of the closed polyline P (n, 2) (shoelace)."""
-    x, y = P[:, 0], P[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-
-
-def points_in_polygon(Q: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """(k,) bool even-odd test of points Q (k, 2) against the closed polyline P (n, 2)."""
-    a, b = P, np.roll(P, -1, axis=0)
-    qx, qy = Q[:, 0:1], Q[:, 1:2]
-    straddle = (a[None, :, 1] > qy) != (b[None, :, 1] > qy)
-    dy = np.where(b[:, 1] == a[:, 1], 1.0, b[:, 1] - a[:, 1])
-    x_cross = a[None, :, 0] + (qy - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / dy[None, :]
-    return (straddle & (qx < x_cross)).sum(axis=1) % 2 == 1
-
-
-def project_to_polyline(Q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest point on the closed polyline P (n, 2) for each Q (k, 2): (param (k,) in [0, n), dist (k,) pixels).
-
-    param = i + s means the point lies at fraction s along edge P[i] -> P[i+1].
-    """
-    a, b = P, np.roll(P, -1, axis=0)
-    e = b - a
-    len2 = np.maximum((e**2).sum(1), 1e-300)
-    s = ((Q[:, None, :] - a[None]) * e[None]).sum(-1) / len2[None]
-    s = np.clip(s, 0.0, 1.0)
-    foot = a[None] + s[..., None] * e[None]
-    d = np.linalg.norm(Q[:, None, :] - foot, axis=-1)
-    i = d.argmin(axis=1)
-    rows = np.arange(len(Q))
-    return i + s[rows, i], d[rows, i]
 
 
 def edges_of(F: np.ndarray) -> np.ndarray:

@@ -17,7 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ops.geometry.handles import handle_bones, place_handles
-from ops.geometry.mesh import cut_along, points_in_polygon, polygon_area, signed_areas, triangulate_pslg
+from ops.geometry.mesh import cut_along, signed_areas, triangulate_pslg
+from ops.geometry.polygon import points_in_polygon, polygon_area
 from ops.types import RefinedMasks, Skeleton
 
 FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this

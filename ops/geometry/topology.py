@@ -22,7 +22,8 @@ import numpy as np
 import optuna
 
 from ops.geometry.deform import Deformer
-from ops.geometry.mesh import project_to_polyline, split_fans
+from ops.geometry.mesh import split_fans
+from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import TemplateBase, build_template
 from ops.types import RefinedMasks, Skeleton, Template, handle_targets
 

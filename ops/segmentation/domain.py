@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.geometry.mesh import points_in_polygon, polygon_area
+from ops.geometry.polygon import points_in_polygon, polygon_area
 
 DILATE_PX = 2  # margin of the domain beyond the last pixel with coverage
 DP_EPS_PX = 1.0  # Douglas-Peucker tolerance of the domain outlines (less than the margin)

@@ -19,7 +19,8 @@ import numpy as np
 from scipy import ndimage
 
 from ops.geometry.deform import Deformer
-from ops.geometry.mesh import boundary_loops, polygon_area, project_to_polyline, triangulate_pslg
+from ops.geometry.mesh import boundary_loops, triangulate_pslg
+from ops.geometry.polygon import polygon_area, project_to_polyline
 from ops.geometry.snap import snap_into
 from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain

@@ -13,7 +13,7 @@ from scipy import ndimage
 from skimage.graph import MCP_Geometric
 from skimage.morphology import skeletonize
 
-from ops.geometry.mesh import project_to_polyline
+from ops.geometry.polygon import project_to_polyline
 from ops.segmentation.bones import segment_distance
 from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of
 from ops.types import Skeleton

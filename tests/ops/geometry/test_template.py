@@ -6,7 +6,8 @@ import pytest
 from ops.geometry import handles as handles_module
 from ops.geometry.deform import Deformer, count_flipped
 from ops.geometry.handles import BONE_FRACTIONS, handle_points, place_handles
-from ops.geometry.mesh import points_in_polygon, signed_areas
+from ops.geometry.mesh import signed_areas
+from ops.geometry.polygon import points_in_polygon
 from ops.geometry.template import build_template
 from ops.geometry.topology import optimize_topology
 from ops.types import RefinedMasks, Skeleton, handle_targets

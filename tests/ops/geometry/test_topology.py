@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from ops.geometry.deform import count_flipped
-from ops.geometry.mesh import boundary_loops, project_to_polyline, vertex_components
+from ops.geometry.mesh import boundary_loops, vertex_components
+from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import build_template
 from ops.geometry.topology import (
     alternating,

@@ -4,7 +4,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from ops.geometry.mesh import points_in_domain, polygon_area
+from ops.geometry.mesh import points_in_domain
+from ops.geometry.polygon import polygon_area
 from ops.segmentation.domain import closed_holes, mesh_domain
 from ops.segmentation.masks import build_masks
 from ops.shotio.image_io import read_image

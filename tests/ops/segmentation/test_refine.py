@@ -4,7 +4,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ops.geometry.mesh import polygon_area
+from ops.geometry.polygon import polygon_area
 from ops.segmentation.junctions import assign_junctions, merge_clicks
 from ops.segmentation.masks import build_masks
 from ops.segmentation.refine import mask_boundary, rasterize, refine_masks, refine_region, simplify

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from ops.geometry.mesh import project_to_polyline
+from ops.geometry.polygon import project_to_polyline
 from ops.segmentation.slits import MAX_INK_PX, junction_slits
 from ops.types import Skeleton
 
