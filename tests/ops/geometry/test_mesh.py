@@ -1,4 +1,5 @@
-"""Tests of ops.geometry.mesh: CDT with constraint loops, repairs, orientation, boundary loops."""
+"""Tests of ops.geometry.mesh and ops.geometry.polygon: CDT with constraint loops, repairs, orientation,
+boundary loops, polygon area and point-in-polygon."""
 import numpy as np
 import pytest
 
@@ -6,14 +7,12 @@ from ops.geometry.mesh import (
     boundary_loops,
     cut_along,
     face_stretch,
-    points_in_polygon,
-    polygon_area,
-    project_to_polyline,
     signed_areas,
     triangulate,
     triangulate_pslg,
     vertex_components,
 )
+from ops.geometry.polygon import points_in_polygon, polygon_area, project_to_polyline
 
 
 def square(x0, y0, s, n_side=1):
