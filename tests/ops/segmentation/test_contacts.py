@@ -74,12 +74,11 @@ def test_an_arm_apart_from_the_torso_is_no_contact():
     assert stroke_contacts(drawing, fg, pose, SKELETON) == []
 
 
-def test_paper_glued_between_painted_bodies_is_a_contact():
-    """Watercolour: an arm painted 3 px beside the torso, no ink anywhere. The mesh's foreground closes the gap;
-    that glued paper is where the two bodies part. Without it nothing is found (paint has no strokes)."""
+def painted_arm(x: float, close_px: int):
+    """Watercolour, no ink anywhere: a pale arm painted with its right edge at x + 8 beside a pink torso whose
+    left edge is at 60. Returns (drawing, painted (H, W) bool, the foreground closed by a close_px disc, pose)."""
     shape = (SIZE, SIZE)
     torso = capsule(shape, (80, 40), (80, 125), 20)
-    x = 48.0  # the arm's right edge at 56, the torso's left at 60
     arm = capsule(shape, (x, 48), (x, 86), 8) | capsule(shape, (x, 86), (x, 122), 8)
     shoulder = capsule(shape, (x, 48), (66, 40), 6)
     painted = torso | arm | shoulder
@@ -87,8 +86,15 @@ def test_paper_glued_between_painted_bodies_is_a_contact():
     drawing[torso] = (0.93, 0.55, 0.65)  # pink top
     drawing[arm | shoulder] = (0.96, 0.84, 0.74)  # pale skin: lighter than the top, by less than a stroke
     closed = cv2.morphologyEx(painted.astype(np.uint8), cv2.MORPH_CLOSE,
-                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (9, 9))).astype(bool)
+                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (close_px, close_px))).astype(bool)
     pose = np.array([[80, 125, 0], [80, 40, 0], [x, 48, -0.5], [x, 86, -0.5], [x + 8, 122, -0.5]], float)
+    return drawing, painted, closed, pose
+
+
+def test_paper_glued_between_painted_bodies_is_a_contact():
+    """Watercolour: an arm painted 3 px beside the torso. The mesh's foreground closes the gap; that glued
+    paper is where the two bodies part. Without it nothing is found (paint has no strokes)."""
+    drawing, painted, closed, pose = painted_arm(48.0, 9)  # the arm's right edge at 56, the torso's left at 60
     assert stroke_contacts(drawing, painted, pose, SKELETON) == []
     pieces = stroke_contacts(drawing, painted, pose, SKELETON, glued=closed & ~painted)
     assert pieces
@@ -101,20 +107,9 @@ def test_paper_glued_wider_than_both_sides_parts_the_bodies_along_its_middle():
     """A watercolour forearm 7 px off the waist, the gap closed over by the foreground: no pixel of the gap lies
     within SIDE_PX of both bodies, but its middle is within its half width plus SIDE_PX of each. Without the
     half width the arm stays glued to the torso along the whole gap."""
-    shape = (SIZE, SIZE)
-    torso = capsule(shape, (80, 40), (80, 125), 20)
-    x = 44.0  # the arm's right edge at 52, the torso's left at 60
-    arm = capsule(shape, (x, 48), (x, 86), 8) | capsule(shape, (x, 86), (x, 122), 8)
-    shoulder = capsule(shape, (x, 48), (66, 40), 6)
-    painted = torso | arm | shoulder
-    drawing = np.ones(shape + (3,), np.float32)
-    drawing[torso] = (0.93, 0.55, 0.65)
-    drawing[arm | shoulder] = (0.96, 0.84, 0.74)
-    closed = cv2.morphologyEx(painted.astype(np.uint8), cv2.MORPH_CLOSE,
-                              cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (13, 13))).astype(bool)
+    drawing, painted, closed, pose = painted_arm(44.0, 13)  # the arm's right edge at 52
     gap = closed & ~painted
     assert gap[80, 53:60].all()  # the foreground closed the whole 7 px
-    pose = np.array([[80, 125, 0], [80, 40, 0], [x, 48, -0.5], [x, 86, -0.5], [x + 8, 122, -0.5]], float)
     pieces = stroke_contacts(drawing, painted, pose, SKELETON, glued=gap)
     assert pieces
     ys, xs = np.nonzero(np.any(pieces, axis=0))
