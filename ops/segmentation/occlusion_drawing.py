@@ -10,6 +10,9 @@ pixel, of the two nearest bones whose bodies reach it, the one with the smaller 
 The skeleton rule (ops.segmentation.occlusion) stays the fallback where the drawing gives no evidence:
 a region it predicts on a patch of the drawing that shows no stroke or colour edge at all (a flat
 silhouette, a manual-mask-like fill) is kept when the network did not mark it.
+
+The default predictor ("hybrid", shape_by_drawing) goes the other way: the skeleton rule's regions, each cut
+to the network's marks where the network sees enough of it.
 """
 from __future__ import annotations
 
