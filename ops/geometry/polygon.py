@@ -1,10 +1,11 @@
-"""Closed polylines in the image plane: signed area, point inside, nearest point.
+"""Closed polylines in the image plane: signed area, point inside, nearest point, the pixels inside.
 
 Pure geometry with no mesh in it, so the masks (ops.segmentation.domain) use it without depending on the
 mesher (ops.geometry.mesh), and an edit to the mesher leaves them fresh.
 """
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 
@@ -39,3 +40,11 @@ def project_to_polyline(Q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.nd
     i = d.argmin(axis=1)
     rows = np.arange(len(Q))
     return i + s[rows, i], d[rows, i]
+
+
+def rasterize(P: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool pixels covered by the closed (n, 2) polygon P (pixel centres, boundary included)."""
+    img = np.zeros(shape, np.uint8)
+    pts = np.round(P * 16).astype(np.int32).reshape(-1, 1, 2)  # 4 fractional bits
+    cv2.fillPoly(img, [pts], 1, lineType=cv2.LINE_8, shift=4)
+    return img > 0

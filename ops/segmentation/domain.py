@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.geometry.polygon import points_in_polygon, polygon_area
+from ops.geometry.polygon import points_in_polygon, polygon_area, rasterize
 
 DILATE_PX = 2  # margin of the domain beyond the last pixel with coverage
 DP_EPS_PX = 1.0  # Douglas-Peucker tolerance of the domain outlines (less than the margin)
@@ -66,11 +66,11 @@ def closed_holes(foreground: np.ndarray, coverage: np.ndarray, holes: np.ndarray
     if not holes.any():
         return holes.copy()
     loops, _ = mesh_domain(foreground, coverage, holes)
-    open_ = np.zeros(holes.shape, np.uint8)
-    kept = [np.round(P * 16).astype(np.int32).reshape(-1, 1, 2) for P in loops if polygon_area(P) < 0]
-    if kept:
-        cv2.fillPoly(open_, kept, 1, lineType=cv2.LINE_8, shift=4)  # 4 fractional bits
-    return holes & (open_ == 0)
+    open_ = np.zeros(holes.shape, bool)
+    for P in loops:
+        if polygon_area(P) < 0:
+            open_ |= rasterize(P, holes.shape)
+    return holes & ~open_
 
 
 def _point_inside(contour: np.ndarray, shape: tuple[int, int], pad: int) -> np.ndarray:

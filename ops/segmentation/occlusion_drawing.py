@@ -162,11 +162,11 @@ def flat_fallback(colour: np.ndarray, marked: np.ndarray, foreground: np.ndarray
     return out, kept, warnings
 
 
-def occlusion_marks(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton
-                    ) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def occlusion_marks(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                    fallback: bool = True) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(H, W) bool pixels of a (H, W, C) float32 or uint8 drawing where one part covers another (the network's
-    mask, with the skeleton rule's regions where the drawing shows nothing), (B,) body radii in keyframe pixels,
-    and warnings. foreground: (H, W) bool; pose: (J, 3).
+    mask, with the skeleton rule's regions where the drawing shows nothing unless `fallback` is False), (B,)
+    body radii in keyframe pixels, and warnings. foreground: (H, W) bool; pose: (J, 3).
 
     The network and the fallback work at the network's working scale (the character about WORK_EXTENT_PX
     across); only the mask is brought back to the keyframe's resolution.
@@ -181,8 +181,11 @@ def occlusion_marks(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     wfg = resample(fg[y0:y1, x0:x1].astype(np.float32), (h, w)) > 0.5
     wpose = to_work(pose, frame)
     marked = (prob[:h, :w] > THRESHOLD) & wfg
-    extra, _, warnings = flat_fallback(x[:3, :h, :w], marked, wfg, wpose, skeleton)
-    mask = (from_work((marked | extra).astype(np.float32), frame, fg.shape) > 0.5) & fg
+    warnings: list[str] = []
+    if fallback:
+        extra, _, warnings = flat_fallback(x[:3, :h, :w], marked, wfg, wpose, skeleton)
+        marked = marked | extra
+    mask = (from_work(marked.astype(np.float32), frame, fg.shape) > 0.5) & fg
     radii = bone_radii(wfg, wpose, skeleton) / frame.zoom  # a body's radius in keyframe pixels
     return mask, radii, warnings
 
@@ -228,12 +231,12 @@ def shape_by_drawing(regions: list[np.ndarray], drawing: np.ndarray, foreground:
     across a watercolour shirt is wider than the painted forearm, and the band of shirt it takes moves with the
     arm. The drawing says where the forearm's edge runs. Where the rule finds no occlusion the marks are not
     taken (a thick tail's segments, a skirt's hem over the thighs); where the network saw nothing of a region
-    (a flat silhouette) the rule stands. Front bones and order stay the rule's, and so do its warnings (the
-    marks' own fallback reruns the rule and would repeat them).
+    (a flat silhouette) the rule stands. Front bones, order and warnings stay the rule's; the marks need no
+    fallback to the rule here (it would run the rule a second time, to keep what is kept anyway).
     """
     fg = np.asarray(foreground, bool)
     if not regions or not fg.any():
         return list(regions)
-    marked = occlusion_marks(drawing, fg, pose, skeleton)[0]
+    marked = occlusion_marks(drawing, fg, pose, skeleton, fallback=False)[0]
     near = ndimage.binary_dilation(marked, structure=np.ones((3, 3), bool), iterations=NEAR_MARK_PX)
     return [r & near if (r & marked).sum() >= MIN_MARKED_SHARE * r.sum() else r for r in regions]

@@ -20,7 +20,7 @@ from scipy import ndimage
 
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, triangulate_pslg
-from ops.geometry.polygon import polygon_area, project_to_polyline
+from ops.geometry.polygon import polygon_area, project_to_polyline, rasterize
 from ops.geometry.snap import snap_into
 from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
@@ -84,14 +84,6 @@ def densify(P: np.ndarray, seg: float = SEGMENT_PX) -> np.ndarray:
     edge = np.repeat(np.arange(len(P)), k)
     frac = np.concatenate([np.arange(c) / c for c in k])
     return P[edge] + frac[:, None] * E[edge]
-
-
-def rasterize(P: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """(H, W) bool pixels covered by the closed (n, 2) polygon P (pixel centres, boundary included)."""
-    img = np.zeros(shape, np.uint8)
-    pts = np.round(P * 16).astype(np.int32).reshape(-1, 1, 2)  # 4 fractional bits
-    cv2.fillPoly(img, [pts], 1, lineType=cv2.LINE_8, shift=4)
-    return img > 0
 
 
 def _insert_points(P: np.ndarray, Q: np.ndarray, reuse_px: float = 0.75) -> tuple[np.ndarray, np.ndarray]:

@@ -184,7 +184,7 @@ def test_hybrid_cuts_the_rules_regions_to_the_drawings_marks(monkeypatch):
     marks[16:24, 10:40] = True  # the drawn forearm: 8 rows of it
     marks[42:44, 50:52] = True  # a speck of the second: too little to reshape it
     marks[0:5, 70:80] = True  # a mark the rule has no region for
-    monkeypatch.setattr(od, "occlusion_marks", lambda *a: (marks, np.ones(1), []))
+    monkeypatch.setattr(od, "occlusion_marks", lambda *a, **k: (marks, np.ones(1), []))
     fg = np.ones((h, w), bool)
     shaped = od.shape_by_drawing([wide, missed], np.ones((h, w, 3), np.float32), fg, np.zeros((2, 3)),
                                     Skeleton(("a", "b"), np.array([-1, 0])))
