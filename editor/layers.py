@@ -93,9 +93,10 @@ def _polyline(p: np.ndarray) -> list[list[float]]:
 
 
 def refined_json(refined: RefinedMasks) -> dict:
-    """Boundaries (closed polylines, pixels) and the snapped T-junctions of each region, as JSON."""
+    """Boundaries (closed polylines, pixels) and the snapped T-junctions of each region, and the outlines of the
+    area the template meshes (its holes' included), as JSON."""
     return {"regions": len(refined.occlusion),
             "boundaries": [_polyline(b) for b in refined.boundaries],
-            "foreground_boundary": _polyline(refined.foreground_boundary),
+            "domain": [_polyline(p) for p in refined.domain],
             "junctions": [_polyline(b[j]) for b, j in zip(refined.boundaries, refined.junctions)],
             "warnings": list(refined.warnings)}

@@ -100,7 +100,7 @@ export class KeyView {
     ctx.lineWidth = 1.5;
     ctx.setLineDash([]);
     ctx.strokeStyle = '#2b7a2b';
-    if (json.foreground_boundary.length > 1) this._poly(json.foreground_boundary, true);
+    for (const outline of json.domain) if (outline.length > 1) this._poly(outline, true);
     json.boundaries.forEach((b, i) => { ctx.strokeStyle = regionColour(i); ctx.lineWidth = 2; this._poly(b, true); });
     ctx.fillStyle = '#d62728';
     for (const pts of json.junctions) {
