@@ -65,9 +65,9 @@ def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, sk
     if method == "drawing":
         regions = drawing_occlusion(image, fg, pose, skeleton)[0]
     else:
-        regions = skeleton_occlusion(fg, pose, skeleton)[0]
+        regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
         if method == "hybrid":
-            regions = shape_by_drawing(regions, image, fg, pose, skeleton)
+            regions = shape_by_drawing(regions, fronts, image, fg, pose, skeleton)
     return union_of(regions, fg.shape)
 
 

@@ -66,13 +66,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     body = holds.any(axis=0)[labels]  # pixels of held compartments
     if not body.any() or len(skeleton.bones) < 2:
         return []
-    fy, fx = np.nonzero(foreground)  # body pixels are foreground pixels: one distance to each bone serves both
-    p = np.stack([fx, fy], axis=1).astype(np.float64)
-    bone_dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
-    in_body = body[fy, fx]
-    ys, xs, dist = fy[in_body], fx[in_body], bone_dist[:, in_body]
-    dist[~holds[:, labels[ys, xs]]] = np.inf
-    owner = np.argmin(dist, axis=0)
+    fy, fx, bone_dist, ys, xs, owner = _owners(foreground, body, labels, holds, pose, skeleton)
     scale = scale_of(foreground.shape)
     side = int(round(SIDE_PX * scale))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * side + 1,) * 2)
@@ -114,6 +108,38 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
         if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX * scale:
             pieces.append(piece)
     return pieces
+
+
+def _owners(foreground: np.ndarray, body: np.ndarray, labels: np.ndarray, holds: np.ndarray, pose: np.ndarray,
+            skeleton: Skeleton) -> tuple[np.ndarray, ...]:
+    """Who owns the (H, W) bool body pixels: each goes to the nearest bone among those that hold its compartment
+    (drawn_parts' labels and holds). Returns the foreground's pixels (fy, fx), their (B, F) distances to every
+    bone, the body's pixels (ys, xs) and their owners (int64 bone indices)."""
+    fy, fx = np.nonzero(foreground)  # body pixels are foreground pixels: one distance to each bone serves both
+    p = np.stack([fx, fy], axis=1).astype(np.float64)
+    bone_dist = np.stack([segment_distance(p, pose[a, :2], pose[b, :2]) for a, b in skeleton.bones])
+    in_body = body[fy, fx]
+    ys, xs, dist = fy[in_body], fx[in_body], bone_dist[:, in_body]
+    dist[~holds[:, labels[ys, xs]]] = np.inf
+    return fy, fx, bone_dist, ys, xs, np.argmin(dist, axis=0)
+
+
+def drawn_bodies(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(H, W) int64: the bone whose body, as drawn, each pixel of the (H, W) bool foreground is (-1 on strokes,
+    on compartments no bone holds and off the foreground). A compartment between strokes goes to the bones that
+    hold it (drawn_parts), each of its pixels to the nearest of them."""
+    _, labels, holds = drawn_parts(drawing, foreground, pose, skeleton)
+    body = holds.any(axis=0)[labels]
+    owned = np.full(foreground.shape, -1, np.int64)
+    if body.any() and len(skeleton.bones):
+        _, _, _, ys, xs, owner = _owners(foreground, body, labels, holds, pose, skeleton)
+        owned[ys, xs] = owner
+    return owned
+
+
+def stroke_reach(shape: tuple[int, int]) -> int:
+    """How far (pixels) a stroke reaches from the body it outlines, for a drawing of (H, W) pixels."""
+    return int(round(STROKE_PX * scale_of(shape)))
 
 
 def _touching(near: np.ndarray, parts: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
@@ -170,7 +196,7 @@ def drawn_parts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, s
     rgb = np.asarray(drawing, np.float32)[..., :3] if drawing.ndim == 3 else np.asarray(drawing, np.float32)[..., None]
     lum = rgb.mean(axis=-1)
     scale = scale_of(foreground.shape)
-    reach = int(round(STROKE_PX * scale))
+    reach = stroke_reach(foreground.shape)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2)
     stroke = foreground & ((cv2.dilate(lum, kernel) - lum) > STROKE_CONTRAST)
     labels, n = _trapped_ball(foreground & ~stroke, TRAP_PX * scale)

@@ -107,7 +107,7 @@ regions shaped by the drawing) or "drawing". `source`
         if occlusion == "hybrid" and regions:
             from ops.segmentation.occlusion_drawing import shape_by_drawing  # torch: only here
 
-            regions = shape_by_drawing(regions, drawing, body, pose, skeleton)
+            regions = shape_by_drawing(regions, fronts, drawing, body, pose, skeleton)
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included
         held = fg if seg.holes is None else fg | closed_holes(fg, seg.coverage, seg.holes)

@@ -12,15 +12,17 @@ a region it predicts on a patch of the drawing that shows no stroke or colour ed
 silhouette, a manual-mask-like fill) is kept when the network did not mark it.
 
 The default predictor ("hybrid", shape_by_drawing) goes the other way: the skeleton rule's regions, each cut
-to the network's marks where the network sees enough of it.
+to the network's marks or to the front bones' bodies between the drawing's strokes, whichever keeps more.
 """
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import torch
 from scipy import ndimage
 
 from ops.segmentation.bones import bone_depths, bone_radii, thick_regions
+from ops.segmentation.contacts import drawn_bodies, stroke_reach
 from ops.segmentation.network_input import from_work, network_input, resample, to_work
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.segmentation.occlusion_net import load_network
@@ -37,6 +39,7 @@ MAX_FLAT_EDGE_SHARE = 0.01  # a region whose pixels are edges less often than th
 MAX_VOTERS = 4000  # pixels of a region that vote on its front bones
 MIN_MARKED_SHARE = 0.2  # a skeleton rule's region the network marks this much of is shaped by the marks
 NEAR_MARK_PX = 2  # ... keeping its pixels this near a mark
+MIN_HELD_SHARE = 0.3  # a skeleton rule's region its front bones' drawn bodies hold this much of may be cut to them
 
 
 def to_uint8(drawing: np.ndarray) -> np.ndarray:
@@ -222,21 +225,41 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
     return [regions[i] for i in order], [fronts[i] for i in order], warnings
 
 
-def shape_by_drawing(regions: list[np.ndarray], drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
-                     skeleton: Skeleton) -> list[np.ndarray]:
-    """The skeleton rule's (H, W) bool regions shaped by the drawing: each that the network marks on at least
-    MIN_MARKED_SHARE of its pixels is cut to the marks (within NEAR_MARK_PX), the rest kept as they are.
+def shape_by_drawing(regions: list[np.ndarray], fronts: list[np.ndarray], drawing: np.ndarray,
+                     foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> list[np.ndarray]:
+    """The skeleton rule's (H, W) bool regions, with their (b,) int64 front bones, shaped by the (H, W, C) float32
+    (0-1) or uint8 drawing. foreground: (H, W) bool; pose: (J, 3).
 
     The rule's region is where two bodies, drawn as capsules around their bones, overlap: a forearm's capsule
     across a watercolour shirt is wider than the painted forearm, and the band of shirt it takes moves with the
-    arm. The drawing says where the forearm's edge runs. Where the rule finds no occlusion the marks are not
-    taken (a thick tail's segments, a skirt's hem over the thighs); where the network saw nothing of a region
-    (a flat silhouette) the rule stands. Front bones, order and warnings stay the rule's; the marks need no
-    fallback to the rule here (it would run the rule a second time, to keep what is kept anyway).
+    arm. The drawing says where the forearm's edge runs, in two readings:
+    - marked: the network's marks (within NEAR_MARK_PX);
+    - held: the front bones' bodies between the drawing's strokes (contacts.drawn_bodies), with the strokes
+      that outline them.
+    Each reading only cuts; a region is cut by the reading that keeps more of it, when that one keeps at least
+    its share (MIN_MARKED_SHARE, MIN_HELD_SHARE), and otherwise stays whole. The network finds painted limbs
+    whose strokes break (two_poses' arm, legs_cross); the strokes find an inked forearm across a scanned belly
+    where the network marks only half of it and the rest of the capsule drags the belly along (scan_jpeg). A
+    reading that keeps less has missed part of the front body, so the one that keeps more is trusted.
+    Where the rule finds no occlusion nothing is taken (a thick tail's segments, a skirt's hem over the
+    thighs); where neither reading sees a region (a flat silhouette) the rule stands. Front bones, order and
+    warnings stay the rule's; the marks need no fallback to the rule here (it would run the rule a second
+    time, to keep what is kept anyway).
     """
     fg = np.asarray(foreground, bool)
     if not regions or not fg.any():
         return list(regions)
     marked = occlusion_marks(drawing, fg, pose, skeleton, fallback=False)[0]
     near = ndimage.binary_dilation(marked, structure=np.ones((3, 3), bool), iterations=NEAR_MARK_PX)
-    return [r & near if (r & marked).sum() >= MIN_MARKED_SHARE * r.sum() else r for r in regions]
+    colour = drawing.astype(np.float32) / 255.0 if drawing.dtype == np.uint8 else drawing  # strokes read 0-1
+    owner = drawn_bodies(colour, fg, pose, skeleton)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * stroke_reach(fg.shape) + 1,) * 2)
+    shaped = []
+    for region, front in zip(regions, fronts):
+        held = cv2.dilate(np.isin(owner, front).astype(np.uint8), disc) > 0
+        size = max(int(region.sum()), 1)
+        readings = [(float((region & near).sum()) / size, MIN_MARKED_SHARE, near),
+                    (float((region & held).sum()) / size, MIN_HELD_SHARE, held)]
+        kept = [(share, cut) for share, least, cut in readings if share >= least]
+        shaped.append(region & max(kept, key=lambda k: k[0])[1] if kept else region)
+    return shaped

@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 
 from ops.segmentation import contacts as contacts_mod
-from ops.segmentation.contacts import stroke_contacts, thin_overlaps
+from ops.segmentation.contacts import drawn_bodies, stroke_contacts, thin_overlaps
 from ops.segmentation.masks import build_masks
 from ops.segmentation.refine import refine_masks
 from ops.segmentation.slits import AVOID_PX, slit_of
@@ -45,6 +45,19 @@ def test_an_arm_touching_the_torso_is_a_contact_along_the_shared_stroke():
     assert ys.max() - ys.min() >= 50  # most of the forearm and upper arm's length
     # down to the hand: its joint on the torso's outline must not hand the torso's pixels to the forearm
     assert ys.max() >= 112
+
+
+def test_drawn_bodies_end_at_the_strokes_between_them():
+    """The torso's pixels are the spine's and the clavicle's, the arm's the arm bones', parted by the stroke
+    between them; strokes are nobody's."""
+    drawing, pose, fg = hanging_arm(gap=3.0)
+    owner = drawn_bodies(drawing, fg, pose, SKELETON)
+    stroke = drawing[..., 0] < 0.5
+    assert (owner[stroke] == -1).all()
+    torso_core = capsule(fg.shape, (80, 40), (80, 125), 16)
+    arm_core = capsule(fg.shape, (48, 55), (48, 118), 4)
+    assert np.isin(owner[torso_core & ~stroke], [0, 1]).all()  # hips -> neck -> shoulder
+    assert np.isin(owner[arm_core & ~stroke], [2, 3]).all()  # shoulder -> elbow -> hand
 
 
 def test_the_torso_near_a_hand_on_its_outline_stays_the_torsos():
