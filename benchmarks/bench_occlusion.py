@@ -237,7 +237,8 @@ def overlay(image: np.ndarray, regions: list[np.ndarray], fronts: list[np.ndarra
 
 def real_drawings(out_dir: Path) -> None:
     """Predicted masks on AnimatedDrawings characters (../shared/realdev), given the person-made foreground and
-    the predicted one: OUT/charN.png = drawing | drawing predictor (true fg) | (predicted fg) | skeleton rule."""
+    the predicted one: OUT/charN.png = drawing | drawing predictor (true fg) | (predicted fg) | hybrid, the default
+    (predicted fg) | skeleton rule (true fg)."""
     import yaml
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -248,12 +249,14 @@ def real_drawings(out_dir: Path) -> None:
         skeleton, pose = real_skeleton(yaml.safe_load((d / "char_cfg.yaml").read_text()), depths)
         pred_fg = segment_foreground(image.astype(np.float32) / 255.0, pose, skeleton).mask
         panels = [image]
-        for fg, method in ((true_fg, "drawing"), (pred_fg, "drawing"), (true_fg, "skeleton")):
+        for fg, method in ((true_fg, "drawing"), (pred_fg, "drawing"), (pred_fg, "hybrid"), (true_fg, "skeleton")):
             t0 = time.perf_counter()
             if method == "drawing":
                 regions, fronts, _ = drawing_occlusion(image, fg, pose, skeleton)
             else:
                 regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
+                if method == "hybrid":
+                    regions = shape_by_drawing(regions, fronts, image, fg, pose, skeleton)
             dt = time.perf_counter() - t0
             panels.append(overlay(image, regions, fronts, pose, skeleton, fg))
             names = ["+".join(skeleton.joints[skeleton.bones[b][1]] for b in f) for f in fronts]
