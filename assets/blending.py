@@ -36,18 +36,19 @@ def _quality_inputs(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.n
 def _rife_matrix(env: StageEnv) -> StageResult:
     """I(alpha, t): RIFE blends of the two deformed sequences on a dyadic alpha grid, and the flow at alpha 1/2.
 
-    Only the cells the optimal or the diagonal path takes are blended (and the cells their bisection needs):
-    both paths are known from q and Q once the alpha-1/2 flows are (ops/blending/path_cells.py).
+    Only the cells the output's path (Settings.blend) takes are blended, and the cells their bisection needs:
+    the path is known from q and Q once the alpha-1/2 flows are (ops/blending/path_cells.py). The evaluation
+    blends the other path's cells when it compares them.
     """
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
     rife = env.resource("rife").load()
     alphas = alpha_grid(env.settings.alpha_depth)
     _, _, q, weight = _quality_inputs(seq0, seq1, alphas)
-    epsilon = env.settings.epsilon
+    epsilon, blend = env.settings.epsilon, env.settings.blend
 
     def wanted(flows: np.ndarray) -> np.ndarray:
-        return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon)
+        return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon, blend)
 
     matrix = build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=env.settings.alpha_depth,
                                 batch=env.resource("rife").batch, wanted=wanted)

@@ -7,6 +7,7 @@ import numpy as np
 
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
+from ops.blending.image_matrix import complete_cells
 from ops.blending.select import select_frames
 from ops.evaluation.baselines import blend_sequences, compare, cross_dissolve, rife_direct, summarize
 from ops.evaluation.plate import over, paper_plate
@@ -70,6 +71,11 @@ def _metrics(env: StageEnv) -> StageResult:
     shot = env.shot
     matrix: ImageMatrix = env.read("rife_matrix")
     paths: BlendPaths = env.read("optimal_path")
+    # the matrix holds the output path's cells: the diagonal's are blended here, only to compare with it
+    seqs = [env.read(f"key{k}/deformed_frames") for k in (0, 1)]
+    for path in (paths.optimal, paths.diagonal):
+        matrix = complete_cells(matrix, seqs[0].images, seqs[1].images, env.resource("rife").load(),
+                                path.alpha_index, env.resource("rife").batch)
     methods = {
         "ours": select_frames(matrix.frames, paths.optimal.alpha_index),
         "ours_diagonal": select_frames(matrix.frames, paths.diagonal.alpha_index),
@@ -93,5 +99,5 @@ def evaluation_assets() -> list:
     return [
         stage_asset("evaluation/rife_direct", _rife_direct, resources=("rife",), group="evaluation"),
         stage_asset("evaluation/single_layer", _single_layer, resources=("rife", "inpainter"), group="evaluation"),
-        stage_asset("evaluation/metrics", _metrics, group="evaluation"),
+        stage_asset("evaluation/metrics", _metrics, resources=("rife",), group="evaluation"),
     ]

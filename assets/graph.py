@@ -60,7 +60,8 @@ EVAL_PARENTS: dict[str, tuple[str, ...]] = {
     "evaluation/single_layer": ("key0/refined_masks", "key1/refined_masks",
                                 "key0/pose", "key1/pose", "motion"),
     "evaluation/metrics": ("rife_matrix", "optimal_path", "evaluation/single_layer", "evaluation/rife_direct",
-                           "key0/masks", "key1/masks", "key0/drawing", "key1/drawing", "ground_truth"),
+                           "key0/deformed_frames", "key1/deformed_frames", "key0/masks", "key1/masks",
+                           "key0/drawing", "key1/drawing", "ground_truth"),
 }
 ALL_PARENTS = {**PARENTS, **EVAL_PARENTS}
 ALL_STAGES = topological(ALL_PARENTS)

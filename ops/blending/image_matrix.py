@@ -88,7 +88,8 @@ def _fill_chunk(cells: torch.Tensor, todo: np.ndarray, depth: int, rife: Rife, b
 def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray, rife: Rife,
                        depth: int = 3, batch: int = 1, out: np.ndarray | None = None,
                        flows_out: np.ndarray | None = None,
-                       wanted: Callable[[np.ndarray], np.ndarray] | None = None) -> ImageMatrix:
+                       wanted: Callable[[np.ndarray], np.ndarray] | None = None,
+                       computed: np.ndarray | None = None) -> ImageMatrix:
     """frames0, frames1: (T, H, W, 4) straight RGBA -> ImageMatrix with frames (T, 2**depth + 1, H, W, 4).
 
     `wanted(flows)`, given the (T, H, W, 4) flows at alpha 1/2, returns the
@@ -99,6 +100,9 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     beyond `out` (optionally a np.memmap) and `flows_out` ((T, H, W, 4),
     likewise) only one chunk is held in memory. On a CPU one pair per call is
     fastest (larger batches fall out of cache); on a GPU use 8 or more.
+    `computed` ((T, A) bool, with `out` and `flows_out` holding those cells and
+    the alpha-1/2 flows of a matrix built before) marks cells already blended:
+    they are kept, and only what `wanted` adds is blended (complete_cells).
     """
     import torch
 
@@ -113,8 +117,13 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     out = _check_out(out, (t_count, n_a, h, w, 4), "out")
     flows_out = _check_out(flows_out, (t_count, h, w, 4), "flows_out")
     need = bisection_closure(np.zeros((t_count, n_a), bool) if wanted else np.ones((t_count, n_a), bool), depth)
-    computed = np.zeros((t_count, n_a), bool)
-    for phase in (0, 1) if wanted else (1,):
+    if computed is None:
+        computed = np.zeros((t_count, n_a), bool)
+    else:  # a matrix built before: its alpha-1/2 cells and flows are known, so the wanted cells are decided now
+        computed = np.array(computed, bool)
+        if computed.shape != (t_count, n_a) or not computed[:, n_a // 2].all():
+            raise ValueError(f"computed must be ({t_count}, {n_a}) bool with every alpha-1/2 cell set")
+    for phase in (0, 1) if wanted and not computed.any() else (1,):
         if phase == 1 and wanted:  # the level-1 flows are known now: decide the rest
             need = bisection_closure(wanted(flows_out), depth)
         for t0 in range(0, t_count, batch):
@@ -140,3 +149,19 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     out[~computed] = 0.0  # not computed: transparent black, and marked so
     return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out,
                        computed=computed)
+
+
+def complete_cells(matrix: ImageMatrix, frames0: np.ndarray, frames1: np.ndarray, rife: Rife,
+                   alpha_index: np.ndarray, batch: int = 1) -> ImageMatrix:
+    """The matrix with the cells (t, alpha_index[t]) of another path blended too (and their bisection's
+    parents); cells it has are kept, not recomputed. frames0, frames1: the (T, H, W, 4) deformed sequences it
+    was built from; alpha_index: (T,) int64. The matrix itself is not changed."""
+    t_count, n_a = matrix.computed.shape
+    want = np.zeros((t_count, n_a), bool)
+    want[np.arange(t_count), np.asarray(alpha_index, np.int64)] = True
+    if (matrix.computed | ~want).all():
+        return matrix
+    depth = int(round(np.log2(n_a - 1)))
+    return build_image_matrix(frames0, frames1, matrix.times, rife, depth=depth, batch=batch,
+                              out=np.array(matrix.frames, np.float32), flows_out=np.array(matrix.flows, np.float32),
+                              wanted=lambda flows: want, computed=matrix.computed)

@@ -3,9 +3,11 @@
 The path's costs need only q (the inpainted shares of the two deformed
 sequences, known before any blending) and Q (the divergence of the RIFE flow
 at alpha = 1/2, known after the first bisection level). So once that level is
-done, the optimal and the diagonal path are fixed, and the deeper cells no
-path takes need not be blended at all. The quality_metrics and optimal_path
-stages later compute the same paths from the stored matrix.
+done, the optimal and the diagonal path are fixed, and the deeper cells the
+output's path does not take need not be blended at all. The quality_metrics
+and optimal_path stages later compute the same paths from the stored matrix;
+the evaluation blends the other path's cells when it compares the two
+(ops.blending.image_matrix.complete_cells).
 """
 from __future__ import annotations
 
@@ -14,11 +16,13 @@ import numpy as np
 from ops.blending.path import diagonal_path, optimal_path
 
 
-def path_cells(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, times: np.ndarray, epsilon: float) -> np.ndarray:
-    """q: (T, A) cell cost, Q: (T,) flow cost, alphas: (A,), times: (T,) -> (T, A) bool cells on the optimal
-    or the diagonal path."""
+def path_cells(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, times: np.ndarray, epsilon: float,
+               blend: str = "optimal") -> np.ndarray:
+    """q: (T, A) cell cost, Q: (T,) flow cost, alphas: (A,), times: (T,) -> (T, A) bool cells on the path the
+    output takes: the optimal one, or the diagonal (alpha = t) for blend "diagonal" (Settings.blend)."""
+    if blend not in ("optimal", "diagonal"):
+        raise ValueError(f"blend {blend!r}: use 'optimal' or 'diagonal'")
+    path = optimal_path(q, Q, alphas, epsilon=epsilon) if blend == "optimal" else diagonal_path(q, Q, alphas, times)
     cells = np.zeros(np.shape(q), dtype=bool)
-    rows = np.arange(cells.shape[0])
-    for path in (optimal_path(q, Q, alphas, epsilon=epsilon), diagonal_path(q, Q, alphas, times)):
-        cells[rows, path.alpha_index] = True
+    cells[np.arange(cells.shape[0]), path.alpha_index] = True
     return cells

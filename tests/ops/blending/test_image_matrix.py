@@ -3,7 +3,13 @@ import numpy as np
 import pytest
 import torch
 
-from ops.blending.image_matrix import alpha_grid, bisection_closure, bisection_levels, build_image_matrix
+from ops.blending.image_matrix import (
+    alpha_grid,
+    bisection_closure,
+    bisection_levels,
+    build_image_matrix,
+    complete_cells,
+)
 from ops.blending.rife import load_rife
 
 
@@ -172,3 +178,28 @@ def test_only_wanted_cells_are_blended_after_the_flows():
     np.testing.assert_array_equal(m.frames[m.computed], full.frames[m.computed])
     np.testing.assert_array_equal(m.frames[~m.computed], 0.0)
     np.testing.assert_array_equal(m.flows, full.flows)
+
+
+def test_completing_another_path_blends_only_its_new_cells():
+    """A matrix built for one path, completed along another: the new cells and their parents are blended, each
+    exactly as in the full matrix, cells it had are neither blended again nor changed, and the flows stay."""
+    f0, f1 = random_frames(5), random_frames(5, seed=1)
+    times = np.linspace(0, 1, 5)
+    full = build_image_matrix(f0, f1, times, AveragingFake(), depth=3)
+    first = np.array([0, 0, 3, 8, 8])  # a path that jumps to key 1
+    diagonal = np.array([0, 2, 4, 6, 8])
+    pick = np.zeros((5, 9), bool)
+    pick[np.arange(5), first] = True
+    m = build_image_matrix(f0, f1, times, AveragingFake(), depth=3, wanted=lambda flows: pick)
+    before = m.frames.copy()
+    fake = AveragingFake()
+    done = complete_cells(m, f0, f1, fake, diagonal)
+    want = pick.copy()
+    want[np.arange(5), diagonal] = True
+    np.testing.assert_array_equal(done.computed, bisection_closure(want, 3))
+    assert sum(fake.calls) == (done.computed & ~m.computed).sum() > 0
+    np.testing.assert_array_equal(done.frames[done.computed], full.frames[done.computed])
+    np.testing.assert_array_equal(m.frames, before)  # the stored matrix is not changed
+    np.testing.assert_array_equal(done.flows, m.flows)
+    again = AveragingFake()
+    assert complete_cells(done, f0, f1, again, diagonal) is done and not again.calls
