@@ -31,10 +31,11 @@ class Settings:
     blend: str = field(default="optimal", metadata=_doc("'optimal' shortest-path blending or 'diagonal' alpha = t (§5.2)."))
     occlusion: str = field(default="hybrid", metadata=_doc(
         "Occlusion masks when none are given (§4.1): 'skeleton' from the skeleton alone (overlapping bodies of "
-        "non-adjacent bones); 'hybrid' (default) the skeleton rule's regions cut to where the drawing shows one "
-        "part covering another (a small network, ops/segmentation/occlusion_drawing.py), each kept whole where "
-        "the network saw little of it; 'drawing' the network's own regions, far nearer the truth (IoU 0.78 "
-        "against 0.27) but, built into templates today, no better in-betweens (README, Evaluation)."))
+        "non-adjacent bones); 'hybrid' (default) the skeleton rule's regions, each cut to where the drawing shows "
+        "the front part (a small network's marks, ops/segmentation/occlusion_drawing.py, or the front bones' "
+        "bodies between the drawing's strokes, whichever keeps more), kept whole where neither sees enough of "
+        "it; 'drawing' the network's own regions, far nearer the truth (IoU 0.78 against 0.27) but, built into "
+        "templates today, no better in-betweens (README, Evaluation)."))
 
     def as_dict(self) -> dict:
         """{name: value} of every parameter."""
