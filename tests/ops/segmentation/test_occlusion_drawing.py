@@ -196,20 +196,26 @@ def test_hybrid_cuts_the_rules_regions_to_the_drawings_marks(monkeypatch):
     assert not shaped[0][0:5, 70:80].any() and not shaped[1][0:5, 70:80].any()
 
 
-def test_hybrid_fits_the_watercolour_forearm_better_than_the_rule():
-    """data_samples/watercolour, key1: the forearm lies across the shirt. The rule's capsule takes a band of shirt
-    above and below the painted arm (that band travelled with the arm in key1's lane); shaped by the drawing the
-    region is smaller and nearer the ground truth, and still holds nearly all of it."""
+def sample_key1(name: str):
+    """data_samples/<name>'s shot, key1 as (H, W, 4) float32, its (J, 3) pose and (H, W) bool ground truth of its
+    second occlusion (the forearm's, on the samples with an arm across the body)."""
     from pathlib import Path
 
     from ops.shotio.image_io import read_image, to_rgba
     from ops.shotio.load import load_shot
 
-    root = Path(__file__).resolve().parents[3] / "data_samples" / "watercolour"
+    root = Path(__file__).resolve().parents[3] / "data_samples" / name
     shot = load_shot(root)
-    drawing, pose = to_rgba(read_image(shot.keyframes[1])), shot.key_pose(1)
     truth = read_image(root / "gt_occ" / "key1_occ1.png")
     truth = (truth[..., 0] if truth.ndim == 3 else truth) > 0.5
+    return shot, to_rgba(read_image(shot.keyframes[1])), shot.key_pose(1), truth
+
+
+def test_hybrid_fits_the_watercolour_forearm_better_than_the_rule():
+    """data_samples/watercolour, key1: the forearm lies across the shirt. The rule's capsule takes a band of shirt
+    above and below the painted arm (that band travelled with the arm in key1's lane); shaped by the drawing the
+    region is smaller and nearer the ground truth, and still holds nearly all of it."""
+    shot, drawing, pose, truth = sample_key1("watercolour")
     best = {}
     for mode in ("skeleton", "hybrid"):
         regions = build_masks(drawing, pose, shot.skeleton, occlusion=mode).occlusion
@@ -224,17 +230,9 @@ def test_hybrid_takes_the_strokes_where_they_keep_more_of_the_forearm(monkeypatc
     of the rule's region there, half of the forearm (cut to the marks, the region keeps 250 of the true 559 px);
     the forearm's compartment between its strokes holds more of the region, and cut to it the region fits the
     truth better than the rule's capsule and better than the marks."""
-    from pathlib import Path
-
     from ops.segmentation import occlusion_drawing as od
-    from ops.shotio.image_io import read_image, to_rgba
-    from ops.shotio.load import load_shot
 
-    root = Path(__file__).resolve().parents[3] / "data_samples" / "scan_jpeg"
-    shot = load_shot(root)
-    drawing, pose = to_rgba(read_image(shot.keyframes[1])), shot.key_pose(1)
-    truth = read_image(root / "gt_occ" / "key1_occ1.png")
-    truth = (truth[..., 0] if truth.ndim == 3 else truth) > 0.5
+    shot, drawing, pose, truth = sample_key1("scan_jpeg")
     fit = {}
     for name, mode, held_share in (("rule", "skeleton", od.MIN_HELD_SHARE), ("marks", "hybrid", 1.1),
                                    ("both", "hybrid", od.MIN_HELD_SHARE)):
