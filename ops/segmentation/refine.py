@@ -247,7 +247,9 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
     slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
     if other_pose is not None:  # the other keyframe tells which parts leave the bodies they cross
-        slits += junction_slits(bounds, juncs, fronts, taken, domain, masks.coverage, pose, skeleton, other_pose)
+        touching = np.any(masks.contacts, axis=0) if masks.contacts else None
+        slits += junction_slits(bounds, juncs, fronts, taken, domain, masks.coverage, pose, skeleton, other_pose,
+                                touching)
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,

@@ -52,9 +52,11 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> n
 
 def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], front_bones: list[np.ndarray],
                    regions: np.ndarray, domain: list[np.ndarray], coverage: np.ndarray, pose: np.ndarray,
-                   skeleton: Skeleton, other_pose: np.ndarray) -> list[np.ndarray]:
+                   skeleton: Skeleton, other_pose: np.ndarray, contacts: np.ndarray | None = None
+                   ) -> list[np.ndarray]:
     """Open polylines (n, 2) float64 from T-junctions out through the paper to the mesh's outline (or a hole's).
-    regions: (H, W) bool pixels of the occlusion regions, which a slit does not cross.
+    regions: (H, W) bool pixels of the occlusion regions, which a slit does not cross; contacts: (H, W) bool
+    strokes where two bodies touch (ops.segmentation.contacts), which a way out runs along as on paper.
 
     At a T-junction a part's outline passes in front of another body's. The region's cut stops there, on the
     drawn stroke, but the mesh reaches on past the outline (its soft rim and margin) and fills the concave
@@ -68,7 +70,10 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
     a skirt at the hem), and only where the other keyframe's pose (J, 3) takes the part off that body: the
     junction, carried with its front bone, ends SEPARATE_PX farther from the crossed bone. A part that stays
     on the body (a hand resting on a belly in both keyframes) stays sewn at the junction: freed, it slid with
-    its handles where the drawing had it still (flat_colour's claw).
+    its handles where the drawing had it still (flat_colour's claw). Where the part and the body touch beyond
+    the junction (crossed shins whose feet touch below the crossing) the corner holds no paper, and the way
+    out follows their contact, where the template parts them anyway: without it the feet stayed sewn, and
+    legs_cross's key1 lane dragged them into one blob as the legs uncrossed.
     """
     h, w = coverage.shape
     inside = _fill(domain, (h, w))
@@ -95,7 +100,7 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
             there = _moved_with_bone(p, ends_xy[f], other_ends[f])
             if segment_distance(there, *other_ends[k]) - dist[k] < SEPARATE_PX * scale:
                 continue
-            slit = _way_out(p, coverage, inside, regions, domain, reach)
+            slit = _way_out(p, coverage, inside, regions, domain, reach, contacts)
             if slit is not None:
                 out.append(slit)
     return out
@@ -123,10 +128,11 @@ def _fill(loops: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
 
 
 def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: np.ndarray,
-             domain: list[np.ndarray], reach: int) -> np.ndarray | None:
+             domain: list[np.ndarray], reach: int, contacts: np.ndarray | None = None) -> np.ndarray | None:
     """(n, 2) polyline from junction p to the domain's outline along the cheapest path of pixels (character
-    costs INK_COST, paper 1; the occlusion regions are closed to it but at p), or None when it crosses more
-    than MAX_INK_PX of character or runs longer than 1.5 REACH_OUTLINE_PX."""
+    costs INK_COST, paper and the (H, W) bool contacts' strokes 1; the occlusion regions are closed to it but
+    at p), or None when it crosses more than MAX_INK_PX of character or runs longer than 1.5
+    REACH_OUTLINE_PX."""
     h, w = coverage.shape
     x0, y0 = max(int(p[0]) - reach, 0), max(int(p[1]) - reach, 0)
     x1, y1 = min(int(p[0]) + reach + 1, w), min(int(p[1]) + reach + 1, h)
@@ -134,6 +140,8 @@ def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: n
     if not (0 <= start[0] < y1 - y0 and 0 <= start[1] < x1 - x0):
         return None
     cov = np.clip(coverage[y0:y1, x0:x1].astype(np.float64), 0.0, 1.0)
+    if contacts is not None:  # a contact's stroke is where two bodies part anyway: no character to cross
+        cov[contacts[y0:y1, x0:x1]] = 0.0
     yy, xx = np.mgrid[y0:y1, x0:x1]
     cost = 1.0 + INK_COST * cov
     cost[regions[y0:y1, x0:x1] & (np.hypot(xx - p[0], yy - p[1]) > 1.5)] = np.inf

@@ -82,3 +82,27 @@ def test_no_slit_where_the_part_stays_on_the_body():
     along[-2:, :2] += [0.0, 8.0]  # slid 8 px down the vertical bar: still across it
     assert junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, along) == []
     assert junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, pose) == []
+
+
+def test_a_junction_slit_runs_out_along_a_contact_where_the_bodies_touch():
+    """Beyond the junction the part and the body it crosses touch (two feet side by side below crossing shins):
+    the corner holds no paper, and every way out crosses more character than the stroke at the junction. Along
+    their contact, where the template parts them anyway, the junction is slit out to the outline; without it,
+    not."""
+    cov, _, bounds, juncs, front, region, pose, skeleton, apart = crossing(between=3)
+    cov[47:55, 44:53] = 1.0  # the lower right corner filled: the two bodies touch there
+    grown = cv2.dilate((cov > 0).astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7)))
+    contours, _ = cv2.findContours(grown, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    domain = [contours[0].reshape(-1, 2).astype(np.float64)]
+    contact = np.zeros((SIZE, SIZE), bool)
+    for i in range(9):  # their shared stroke, from the junction out across the filled corner
+        contact[47 + i, 44 + i] = True
+    corner = CORNERS[2]  # (44, 47)
+    without = junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, apart)
+    assert not any(np.allclose(s[0], corner) for s in without)
+    along = junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, apart, contact)
+    slit = [s for s in along if np.allclose(s[0], corner)]
+    assert len(slit) == 1 and len(along) == len(without) + 1
+    _, d = project_to_polyline(slit[0][-1][None], domain[0])
+    assert d[0] < 1e-6  # ends on the mesh's outline
+    assert (slit[0][-1] > corner + 5).all()  # out through the filled corner, down and to the right
