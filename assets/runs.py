@@ -82,11 +82,13 @@ class StageFailed(RuntimeError):
     def __init__(self, shot: str, stage: str, cause: str, log: Path | None, trace: str = ""):
         self.shot, self.stage, self.cause, self.log, self.trace = shot, stage, cause, log, trace
         cause = " ".join(cause.split())  # one line, whatever the exception's message held
-        fix = DISK_FULL_FIX if "No space left on device" in cause else FIXES.get(stage.split("/")[-1], GENERIC_FIX)
+        full = any(sign in cause for sign in DISK_FULL_SIGNS)
+        fix = DISK_FULL_FIX if full else FIXES.get(stage.split("/")[-1], GENERIC_FIX)
         super().__init__(f"{shot}: {stage}: {cause}; fix: {fix}")
 
 
 DISK_FULL_FIX = "free disk space under INBETWEEN_HOME and the output folder, then rerun (stored stages are kept)"
+DISK_FULL_SIGNS = ("No space left on device", "database or disk is full")  # OSError ENOSPC; SQLite's SQLITE_FULL
 
 
 class HomeDamaged(RuntimeError):

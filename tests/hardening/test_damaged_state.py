@@ -9,7 +9,7 @@ import pytest
 
 import resources.store as store_module
 from assets.cli import main
-from assets.runs import run_shot, status
+from assets.runs import StageFailed, run_shot, status
 
 from .conftest import cli
 from .test_damaged_store import _DiskFull
@@ -94,3 +94,12 @@ def test_enospc_is_named_by_the_cli_for_any_command(tmp_path, monkeypatch, capsy
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "No space left on device" in err[0] and "free disk space" in err[0]
     assert "full trace: " in err[0]
+
+
+def test_a_full_sqlite_database_reads_as_a_full_disk():
+    """SQLite says a full disk its own way (the Dagster event log, a stage's own database): same fix, one line."""
+    cause = "OperationalError: (sqlite3.OperationalError) database or disk is full\n(Background on this error ...)"
+    line = str(StageFailed("arm_cross", "key1/template", cause, None))
+    assert "\n" not in line and "database or disk is full" in line and "free disk space" in line
+    other = str(StageFailed("arm_cross", "key1/template", "ValueError: no handles", None))
+    assert "free disk space" not in other
