@@ -7,9 +7,8 @@ import numpy as np
 
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
-from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
-from ops.blending.path_cells import path_cells
+from ops.blending.path_cells import path_matrix
 from ops.blending.quality import (
     coverage_weight,
     interpolation_quality,
@@ -42,16 +41,9 @@ def _rife_matrix(env: StageEnv) -> StageResult:
     """
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
-    rife = env.resource("rife").load()
-    alphas = alpha_grid(env.settings.alpha_depth)
-    _, _, q, weight = _quality_inputs(seq0, seq1, alphas)
-    epsilon, blend = env.settings.epsilon, env.settings.blend
-
-    def wanted(flows: np.ndarray) -> np.ndarray:
-        return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon, blend)
-
-    matrix = build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=env.settings.alpha_depth,
-                                batch=env.resource("rife").batch, wanted=wanted)
+    s = env.settings
+    matrix = path_matrix(seq0, seq1, env.resource("rife").load(), s.alpha_depth, s.epsilon, s.blend,
+                         env.resource("rife").batch)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
     meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
             "cells_computed": int(matrix.computed.sum()), "device": env.resource("rife").device}

@@ -11,9 +11,17 @@ the evaluation blends the other path's cells when it compares the two
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
+from ops.blending.quality import coverage_weight, interpolation_quality, texture_quality, unreliable_share
+from ops.types import DeformedSequence, ImageMatrix
+
+if TYPE_CHECKING:
+    from ops.blending.rife import Rife
 
 
 def path_cells(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, times: np.ndarray, epsilon: float,
@@ -26,3 +34,17 @@ def path_cells(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, times: np.ndarr
     cells = np.zeros(np.shape(q), dtype=bool)
     cells[np.arange(cells.shape[0]), path.alpha_index] = True
     return cells
+
+
+def path_matrix(seq0: DeformedSequence, seq1: DeformedSequence, rife: Rife, depth: int, epsilon: float,
+                blend: str = "optimal", batch: int = 1) -> ImageMatrix:
+    """The image matrix of two deformed sequences with only the cells of `blend`'s path (and their bisection's
+    parents) blended: q from the sequences, Q from the alpha-1/2 flows once they are known."""
+    alphas = alpha_grid(depth)
+    q = texture_quality(unreliable_share(seq0), unreliable_share(seq1), alphas)
+    weight = coverage_weight(seq0.images[..., 3], seq1.images[..., 3])
+
+    def wanted(flows: np.ndarray) -> np.ndarray:
+        return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon, blend)
+
+    return build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=depth, batch=batch, wanted=wanted)

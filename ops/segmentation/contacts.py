@@ -46,13 +46,14 @@ THIN_SHARE = 0.95  # an overlap region with this share of its pixels within SIDE
 
 
 def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
-                    glued: np.ndarray | None = None) -> list[np.ndarray]:
+                    glued: np.ndarray | None = None, parts: tuple | None = None) -> list[np.ndarray]:
     """(H, W) bool contacts of a (H, W, C) float32 drawing: stroke pixels inside the (H, W) bool foreground
     between two compartments of the drawing, with the bodies of two bones that are not neighbours on their two
     sides, in pieces at least MIN_CONTACT_PX long.
 
     glued: (H, W) bool paper the mesh's foreground closed over (a watercolour hand a few pixels beside the
     skirt, no ink between). It parts bodies as a stroke does.
+    parts: drawn_parts' result for this drawing and foreground, when the caller has it already.
 
     A stroke is a pixel darker than the brightest within STROKE_PX by STROKE_CONTRAST (ink on paper, a dark
     outline on a colour fill, pencil); the compartments are the pieces between strokes (drawn_parts). A
@@ -62,7 +63,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     bone (spine - clavicle - upper arm) meet around it: that bone's body is left out, so the arm stays
     attached at the shoulder.
     """
-    stroke, labels, holds = drawn_parts(drawing, foreground, pose, skeleton)
+    stroke, labels, holds = parts if parts is not None else drawn_parts(drawing, foreground, pose, skeleton)
     body = holds.any(axis=0)[labels]  # pixels of held compartments
     if not body.any() or len(skeleton.bones) < 2:
         return []
@@ -124,11 +125,12 @@ def _owners(foreground: np.ndarray, body: np.ndarray, labels: np.ndarray, holds:
     return fy, fx, bone_dist, ys, xs, np.argmin(dist, axis=0)
 
 
-def drawn_bodies(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+def drawn_bodies(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                 parts: tuple | None = None) -> np.ndarray:
     """(H, W) int64: the bone whose body, as drawn, each pixel of the (H, W) bool foreground is (-1 on strokes,
     on compartments no bone holds and off the foreground). A compartment between strokes goes to the bones that
-    hold it (drawn_parts), each of its pixels to the nearest of them."""
-    _, labels, holds = drawn_parts(drawing, foreground, pose, skeleton)
+    hold it (drawn_parts, or `parts` when the caller has them), each of its pixels to the nearest of them."""
+    _, labels, holds = parts if parts is not None else drawn_parts(drawing, foreground, pose, skeleton)
     body = holds.any(axis=0)[labels]
     owned = np.full(foreground.shape, -1, np.int64)
     if body.any() and len(skeleton.bones):

@@ -11,7 +11,7 @@ from scipy import ndimage
 
 from ops.errors import ShotError
 from ops.segmentation.bones import thick_regions
-from ops.segmentation.contacts import stroke_contacts
+from ops.segmentation.contacts import drawn_parts, stroke_contacts
 from ops.segmentation.domain import closed_holes
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
@@ -94,6 +94,7 @@ regions shaped by the drawing) or "drawing". `source`
     warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
     contacts: list[np.ndarray] = []
+    parts = drawn_parts(drawing, body, pose, skeleton) if predicted else None  # the hybrid's and the contacts'
     if predicted and occlusion == "drawing":
         # no pockets where bones that share a joint overlap: the mesh bends there, and a pocket at an elbow
         # or a hip opened as a dark blob when the limb moved (arm_cross: 25.2 -> 25.5 dB, Chamfer 30.2 -> 28.1)
@@ -107,11 +108,11 @@ regions shaped by the drawing) or "drawing". `source`
         if occlusion == "hybrid" and regions:
             from ops.segmentation.occlusion_drawing import shape_by_drawing  # torch: only here
 
-            regions = shape_by_drawing(regions, fronts, drawing, body, pose, skeleton)
+            regions = shape_by_drawing(regions, fronts, drawing, body, pose, skeleton, parts)
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included
         held = fg if seg.holes is None else fg | closed_holes(fg, seg.coverage, seg.holes)
-        contacts = stroke_contacts(drawing, body, pose, skeleton, glued=held & ~body)
+        contacts = stroke_contacts(drawing, body, pose, skeleton, glued=held & ~body, parts=parts)
     else:
         kept, w = clip_manual_occlusion(list(manual_occlusion), fg)
         warnings += w

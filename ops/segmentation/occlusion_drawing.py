@@ -226,9 +226,11 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
 
 
 def shape_by_drawing(regions: list[np.ndarray], fronts: list[np.ndarray], drawing: np.ndarray,
-                     foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> list[np.ndarray]:
+                     foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton, parts: tuple | None = None
+                     ) -> list[np.ndarray]:
     """The skeleton rule's (H, W) bool regions, with their (b,) int64 front bones, shaped by the (H, W, C) float32
-    (0-1) or uint8 drawing. foreground: (H, W) bool; pose: (J, 3).
+    (0-1) or uint8 drawing. foreground: (H, W) bool; pose: (J, 3); parts: contacts.drawn_parts' result for this
+    drawing and foreground, when the caller has it already.
 
     The rule's region is where two bodies, drawn as capsules around their bones, overlap: a forearm's capsule
     across a watercolour shirt is wider than the painted forearm, and the band of shirt it takes moves with the
@@ -252,7 +254,7 @@ def shape_by_drawing(regions: list[np.ndarray], fronts: list[np.ndarray], drawin
     marked = occlusion_marks(drawing, fg, pose, skeleton, fallback=False)[0]
     near = ndimage.binary_dilation(marked, structure=np.ones((3, 3), bool), iterations=NEAR_MARK_PX)
     colour = drawing.astype(np.float32) / 255.0 if drawing.dtype == np.uint8 else drawing  # strokes read 0-1
-    owner = drawn_bodies(colour, fg, pose, skeleton)
+    owner = drawn_bodies(colour, fg, pose, skeleton, parts)
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * stroke_reach(fg.shape) + 1,) * 2)
     shaped = []
     for region, front in zip(regions, fronts):
