@@ -11,7 +11,7 @@ from ops.blending.image_matrix import complete_cells
 from ops.blending.select import select_frames
 from ops.evaluation.baselines import blend_sequences, compare, cross_dissolve, rife_direct, summarize
 from ops.evaluation.plate import over, paper_plate
-from ops.geometry.topology import optimize_topology
+from ops.geometry.topology import Solver, optimize_topology
 from ops.shotio.image_io import read_image, to_rgba
 from ops.shotio.load import ground_truth_files
 from ops.types import BlendPaths, ImageMatrix, OutputFrames
@@ -35,9 +35,8 @@ def _single_layer(env: StageEnv) -> StageResult:
     seqs = []
     for k in (0, 1):
         template = optimize_topology(refined[k], shot.key_pose(k), shot.key_pose(1 - k), shot.skeleton,
-                                     mode="single-layer", seed=s.seed)
-        textured, _ = texture_lane(template, refined[k], refined[1 - k], shot.key_pose(k), shot.key_pose(1 - k),
-                                   inpainter, s.mu, s.grad_tol, s.max_iter)
+                                     mode="single-layer", seed=s.seed, solver=Solver(s.mu, s.grad_tol, s.max_iter))
+        textured, _ = texture_lane(template, refined[k], refined[1 - k], shot.key_pose(k), inpainter)
         seqs.append(deform_lane(textured, shot.times, shot.poses, k == 1, shot.size, s.mu, s.supersample))
     matrix, paths = blend_sequences(seqs[0], seqs[1], env.resource("rife").load(), s.alpha_depth, s.epsilon)
     frames = select_frames(matrix.frames, paths.optimal.alpha_index)

@@ -6,7 +6,7 @@ import numpy as np
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
 from ops.geometry.deform import count_flipped
-from ops.geometry.topology import optimize_topology
+from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
 from ops.segmentation.refine import refine_masks
 from ops.shotio.image_io import read_image
@@ -76,7 +76,7 @@ def _template(k: int):
         shot, s = env.shot, env.settings
         refined: RefinedMasks = env.read(f"key{k}/refined_masks")
         template = optimize_topology(refined, shot.key_pose(k), shot.key_pose(1 - k), shot.skeleton,
-                                     mode=s.template_mode, seed=s.seed)
+                                     mode=s.template_mode, seed=s.seed, solver=Solver(s.mu, s.grad_tol, s.max_iter))
         for w in template.warnings:
             env.context.log.warning(w)
         meta = {"V": len(template.rest), "F": len(template.faces), "layers": int(template.face_layer.max()) + 1,
@@ -96,10 +96,10 @@ def _check_template_folds(template, env) -> tuple[bool, str]:
 def _textured(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Depth weights (bounded biharmonic) and texture of every layer; unseen parts inpainted (§5.1)."""
-        shot, s = env.shot, env.settings
+        shot = env.shot
         textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
-                                        env.read(f"key{1 - k}/refined_masks"), shot.key_pose(k), shot.key_pose(1 - k),
-                                        env.resource("inpainter").get(), s.mu, s.grad_tol, s.max_iter)
+                                        env.read(f"key{1 - k}/refined_masks"), shot.key_pose(k),
+                                        env.resource("inpainter").get())
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),

@@ -7,6 +7,12 @@ Laplacian of the normalized rest mesh, H = handle indicator; 8 (-L) is the SD
 Hessian scale at the identity, 2 mu that of the pose term), scaled each
 iteration by s^T y / y^T P^-1 y. P is factorized once per mesh (splu).
 
+One solve with P per iteration: applying P^-1 is linear, so the recursion's
+P^-1 q = P^-1 g - sum a_i P^-1 y_i is assembled from the preconditioned
+gradient of each iterate and P^-1 y_i = P^-1 g_(i+1) - P^-1 g_i, kept with
+its pair (two solves per iteration before; the iterates are the same up to
+rounding).
+
 Connected components without a handle make P singular (translations are
 free): those vertices get a tiny multiple of the lumped mass matrix on the
 diagonal, and every search direction has its per-component mean removed there
@@ -111,7 +117,13 @@ class Deformer:
         has_handle = np.zeros(comp.max() + 1, bool)
         has_handle[comp[self.handles]] = True
         free = ~has_handle[comp]
-        groups = [np.nonzero(comp == c)[0] for c in np.nonzero(~has_handle)[0]]
+        free_comps = np.nonzero(~has_handle)[0]
+        # each vertex of a handle-free component -> its group (0 .. g-1), the others -> g (dropped)
+        group_of = np.full(comp.max() + 1, len(free_comps), np.int64)
+        group_of[free_comps] = np.arange(len(free_comps))
+        self._group = group_of[comp]
+        self._group_size = np.bincount(self._group, minlength=len(free_comps) + 1)[:-1].astype(np.float64)
+        groups = [np.nonzero(comp == c)[0] for c in free_comps]
         if free.any():
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))
@@ -121,10 +133,14 @@ class Deformer:
         return groups
 
     def precondition(self, G: np.ndarray) -> np.ndarray:
-        """P^-1 G for G (n, 2), with handle-free components' translation removed."""
+        """P^-1 G for G (n, 2), with handle-free components' translation removed (a linear map of G)."""
         D = self._solve_P(G)
-        for g in self._free_groups:
-            D[g] -= D[g].mean(axis=0)
+        if self._free_groups:
+            g, k = self._group, len(self._group_size)
+            mean = np.stack([np.bincount(g, D[:, c], minlength=k + 1)[:k] for c in (0, 1)], axis=1)
+            mean /= self._group_size[:, None]
+            free = g < k
+            D[free] -= mean[g[free]]
         return D
 
     def energy(self, x: np.ndarray, targets: np.ndarray) -> float:
@@ -145,26 +161,28 @@ class Deformer:
         E, G = self.energy_fn.value_grad(X, T)
         if not np.isfinite(E):
             raise ValueError("x0 folds a triangle: the deformation must start from a fold-free state")
-        hist = deque(maxlen=memory)
+        hist = deque(maxlen=memory)  # (s, y, 1 / s.y, P^-1 y) of the newest pairs
         energies = [E]
         it, gnorm = 0, float(np.linalg.norm(G))
+        PG = self.precondition(G) if gnorm >= grad_tol else None
         while gnorm >= grad_tol and it < max_iter:
-            D = -self._direction(G, hist)
+            D = -self._direction(G, PG, hist)
             if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient
                 hist.clear()
-                D = -self.precondition(G)
+                D = -PG
             step = self._line_search(X, D, E, G, T)
             if step is None and hist:
                 hist.clear()
-                D = -self.precondition(G)
+                D = -PG
                 step = self._line_search(X, D, E, G, T)
             if step is None:
                 break
             t, E1, G1 = step
+            PG1 = self.precondition(G1)
             s, y = t * D, G1 - G
             if np.vdot(s, y) > 1e-16:
-                hist.append((s, y, 1.0 / np.vdot(s, y)))
-            X, E, G = X + s, E1, G1
+                hist.append((s, y, 1.0 / np.vdot(s, y), PG1 - PG))
+            X, E, G, PG = X + s, E1, G1, PG1
             energies.append(E)
             it += 1
             gnorm = float(np.linalg.norm(G))
@@ -177,20 +195,47 @@ class Deformer:
             energy_history=np.asarray(energies),
         )
 
-    def _direction(self, G: np.ndarray, hist: deque) -> np.ndarray:
-        """L-BFGS two-loop recursion with H0 = gamma P^-1: approximates H^-1 G, (n, 2)."""
-        q = G.copy()
+    def solve_along(
+        self,
+        path: list[np.ndarray],
+        x0: np.ndarray | None = None,
+        grad_tol: float = 0.01,
+        step_tol: float = 1.0,
+        max_iter: int = 5000,
+    ) -> DeformResult:
+        """Continuation: solve to each handle-target set of `path` (each (h, 2) pixels) in turn, each from the
+        previous solution; the intermediate ones only to gradient norm step_tol, the last to grad_tol.
+
+        A direct solve from rest to a far pose starts where the pose term dwarfs everything else, and L-BFGS can
+        settle in a crumpled minimum after thousands of iterations (the samples' templates: 163k iterations,
+        energies up to 9x those of this path); a few steps along the motion reach the minimum the lanes'
+        frame-by-frame deformation reaches, in a third of the iterations. Returns the last solve, with
+        iterations and the energy history of all steps.
+        """
+        if not len(path):
+            raise ValueError("solve_along needs at least one set of handle targets")
+        x, iterations, history = x0, 0, []
+        for i, targets in enumerate(path):
+            res = self.solve(targets, x0=x, grad_tol=grad_tol if i == len(path) - 1 else step_tol, max_iter=max_iter)
+            x, iterations = res.x, iterations + res.iterations
+            history.append(res.energy_history)
+        res.iterations, res.energy_history = iterations, np.concatenate(history)
+        return res
+
+    def _direction(self, G: np.ndarray, PG: np.ndarray, hist: deque) -> np.ndarray:
+        """L-BFGS two-loop recursion with H0 = gamma P^-1: approximates H^-1 G, (n, 2); PG = P^-1 G."""
+        q, r = G.copy(), PG.copy()  # r follows P^-1 q through the first loop (P^-1 is linear)
         alphas = []
-        for s, y, rho in reversed(hist):
+        for s, y, rho, Py in reversed(hist):
             a = rho * np.vdot(s, q)
             alphas.append(a)
             q -= a * y
-        r = self.precondition(q)
+            r -= a * Py
         if hist:
             # Standard L-BFGS scaling of H0 = gamma P^-1 from the newest pair.
-            s, y, _ = hist[-1]
-            r *= np.vdot(s, y) / max(np.vdot(y, self.precondition(y)), 1e-300)
-        for (s, y, rho), a in zip(hist, reversed(alphas)):
+            s, y, _, Py = hist[-1]
+            r *= np.vdot(s, y) / max(np.vdot(y, Py), 1e-300)
+        for (s, y, rho, _), a in zip(hist, reversed(alphas)):
             b = rho * np.vdot(y, r)
             r += (a - b) * s
         return r

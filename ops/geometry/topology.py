@@ -11,7 +11,13 @@ Incision is pure vertex re-indexing: every vertex of region r gets a back copy
 used by the pocket faces (switch vertices keep one shared vertex); outside
 faces at a boundary vertex of a 1-segment are re-pointed to the back copy.
 A topology is scored by deforming the template from its rest pose to the
-other keyframe's pose (ops.deform); the lowest energy wins.
+other keyframe's pose (ops.deform); the lowest energy wins. The deformation
+follows the motion between the two key poses in PATH_STEPS steps
+(Deformer.solve_along): it reaches the minimum the lane's frame-by-frame
+deformation reaches, where a direct solve often stopped in a crumpled one,
+so each topology is scored by the deformation the lane will actually show.
+The chosen topology's deformation is kept with the template (`at_other`):
+texturing samples the other keyframe through it.
 """
 from __future__ import annotations
 
@@ -25,9 +31,11 @@ from ops.geometry.deform import Deformer
 from ops.geometry.mesh import split_fans
 from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import TemplateBase, build_template
+from ops.shotio.interpolate import interpolate_pose
 from ops.types import RefinedMasks, Skeleton, Template, handle_targets
 
 MAX_ODD_TRIALS = 30
+PATH_STEPS = 4  # poses from this keyframe's to the other's (energies and iterations over the samples: DESIGN.md)
 _FAILED = 1e12  # stands in for +inf energy inside optuna
 
 
@@ -139,31 +147,49 @@ def _nonmanifold_warning(F: np.ndarray) -> list[str]:
     return [f"{bad} non-manifold edge(s) where switch vertices are adjacent"] if bad else []
 
 
-def evaluate(base: TemplateBase, assignments: list[Assignment], targets: np.ndarray) -> tuple[float, Incised]:
-    """Energy (inf on failure) of deforming the incised template from rest to handle targets (h, 2) pixels."""
+@dataclass(frozen=True)
+class Solver:
+    """How a topology is deformed to be scored (ops.geometry.deform)."""
+
+    mu: float = 200.0
+    grad_tol: float = 0.01
+    max_iter: int = 5000
+
+
+def pose_path(pose_self: np.ndarray, pose_other: np.ndarray, parents: np.ndarray, steps: int = PATH_STEPS) -> list:
+    """(J, 3) poses at 1/steps, 2/steps, .., 1 of the way from pose_self to pose_other (per-bone angles, as the
+    motion interpolates); the last is pose_other exactly."""
+    return [interpolate_pose(pose_self, pose_other, i / steps, parents) for i in range(1, steps)] + [pose_other]
+
+
+def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.ndarray],
+             solver: Solver = Solver()) -> tuple[float, Incised, np.ndarray | None]:
+    """Energy (inf on failure) of deforming the incised template from rest along handle targets path (each
+    (h, 2) pixels), the incised template, and its vertices (n, 2) pixels at the last targets (None on failure)."""
     inc = incise(base, assignments)
     try:
-        res = Deformer(inc.rest, inc.faces, inc.handles).solve(targets)
-        energy = res.energy if np.isfinite(res.energy) else np.inf
+        res = Deformer(inc.rest, inc.faces, inc.handles, solver.mu).solve_along(
+            path, grad_tol=solver.grad_tol, max_iter=solver.max_iter)
+        energy, x = (res.energy, res.x) if np.isfinite(res.energy) else (np.inf, None)
     except (ValueError, RuntimeError, np.linalg.LinAlgError):
-        energy = np.inf
-    return float(energy), inc
+        energy, x = np.inf, None
+    return float(energy), inc, x
 
 
 class _Search:
     """Memoized topology evaluation: every distinct combination of region choices is solved once."""
 
-    def __init__(self, base: TemplateBase, targets: np.ndarray):
-        """base: the front-sheet template; targets: (h, 2) handle targets at the other pose, pixels."""
-        self.base, self.targets = base, targets
-        self.cache: dict[tuple, tuple[float, Incised, list[Assignment]]] = {}
+    def __init__(self, base: TemplateBase, path: list[np.ndarray], solver: Solver):
+        """base: the front-sheet template; path: (h, 2) handle targets towards the other pose, pixels."""
+        self.base, self.path, self.solver = base, path, solver
+        self.cache: dict[tuple, tuple[float, Incised, list[Assignment], np.ndarray | None]] = {}
 
     def score(self, choice: tuple, options: list) -> float:
         """Energy of the per-region option indices `choice` (options[r](i) -> Assignment)."""
         if choice not in self.cache:
             assign = [options[r](i) for r, i in enumerate(choice)]
-            e, inc = evaluate(self.base, assign, self.targets)
-            self.cache[choice] = (e, inc, assign)
+            e, inc, x = evaluate(self.base, assign, self.path, self.solver)
+            self.cache[choice] = (e, inc, assign, x)
         return self.cache[choice][0]
 
 
@@ -196,11 +222,13 @@ def optimize_topology(
     mode: str = "optimized",
     seed: int = 0,
     max_area: float | None = None,
+    solver: Solver = Solver(),
 ) -> Template:
     """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3)."""
     base = build_template(refined, pose_self, skeleton, mode, max_area)
-    targets = handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, pose_other)
-    search = _Search(base, targets)
+    path = [handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, pose)
+            for pose in pose_path(pose_self, pose_other, skeleton.parents)]
+    search = _Search(base, path, solver)
     options, sizes, ks = [], [], []
     for r in range(base.n_regions):
         n, jn = len(base.boundaries[r]), base.junctions[r]
@@ -211,7 +239,7 @@ def optimize_topology(
     for r in range(base.n_regions):
         choice[r] = _region_optimum(search, choice, r, options, sizes[r], ks[r], seed)
     energy = search.score(tuple(choice), options)
-    _, inc, assign = search.cache[tuple(choice)]
+    _, inc, assign, at_other = search.cache[tuple(choice)]
     warnings = base.warnings + inc.warnings
     if not np.isfinite(energy):
         warnings.append("no topology deformed to the other keyframe's pose without failure")
@@ -219,7 +247,7 @@ def optimize_topology(
         rest=inc.rest, faces=inc.faces, face_layer=inc.face_layer, handles=inc.handles,
         handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
         cut_assignment=[a.labels.copy() for a in assign],
-        energy=float(energy), trials=len(search.cache), mode=mode, warnings=warnings,
+        energy=float(energy), trials=len(search.cache), mode=mode, warnings=warnings, at_other=at_other,
     )
 
 

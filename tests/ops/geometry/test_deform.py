@@ -135,3 +135,36 @@ def test_deform_sequence_orders():
     assert np.abs(Xf[2] - Xb[2]).max() < 1.0
     with pytest.raises(ValueError):
         deform_sequence(tpl, poses, "sideways")
+
+
+def test_one_solve_recursion_equals_the_textbook_two_loop():
+    # the solver applies P^-1 once per iteration and forms P^-1 y from consecutive preconditioned gradients;
+    # the textbook recursion (P^-1 applied to q after the first loop, and to y for the scaling) must agree,
+    # on a mesh with a handle-free piece (whose translation the preconditioner projects out)
+    V1, F1, h = strip()
+    V2, F2, _ = strip(offset=(0.0, 100.0))
+    V, F = np.vstack([V1, V2]), np.vstack([F1, F2 + len(V1)])
+    d = Deformer(V, F, h)
+    assert len(d._free_groups) == 1
+    rng = np.random.default_rng(1)
+    G = [rng.standard_normal(V.shape) for _ in range(5)]
+    S = [rng.standard_normal(V.shape) for _ in range(4)]
+    hist, textbook = [], []
+    for i in range(4):
+        y = G[i + 1] - G[i]
+        hist.append((S[i], y, 1.0 / np.vdot(S[i], y), d.precondition(G[i + 1]) - d.precondition(G[i])))
+        textbook.append((S[i], y, 1.0 / np.vdot(S[i], y)))
+    q, alphas = G[4].copy(), []
+    for s, y, rho in reversed(textbook):
+        alphas.append(rho * np.vdot(s, q))
+        q -= alphas[-1] * y
+    r = d.precondition(q) * np.vdot(S[3], textbook[3][1]) / np.vdot(textbook[3][1], d.precondition(textbook[3][1]))
+    for (s, y, rho), a in zip(textbook, reversed(alphas)):
+        r += (a - rho * np.vdot(y, r)) * s
+    fast = d._direction(G[4], d.precondition(G[4]), hist)
+    # equal up to the rounding of the solves (the free piece's regularized P is ill-conditioned: ~1e-8)
+    assert np.abs(fast - r).max() <= 1e-7 * np.abs(r).max()
+    # and the projection: the free piece's mean of P^-1 G is zero, its other part is the plain solve's
+    PG = d.precondition(G[0])
+    assert np.allclose(PG[len(V1):].mean(axis=0), 0.0, atol=1e-6)  # (its translation before: ~1e6 x larger)
+    assert np.allclose(PG[:len(V1)], d._solve_P(G[0])[:len(V1)])
