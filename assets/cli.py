@@ -26,6 +26,7 @@ from ops.settings import OCCLUSION_PREDICTORS, Settings
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 
 
 def _settings(args) -> Settings:
@@ -303,7 +304,7 @@ def leave_past_workers(code: int, wait_s: float = 0.5) -> None:
 
 def _main(argv: list[str] | None) -> int:
     args = _parser().parse_args(argv)
-    from .runs import HomeDamaged, StageFailed, warnings_to_log
+    from .runs import HomeDamaged, RunInterrupted, StageFailed, warnings_to_log
 
     if not getattr(args, "verbose", False):
         warnings_to_log()
@@ -317,13 +318,13 @@ def _main(argv: list[str] | None) -> int:
             _say(e.trace)
         where = f" (full log: {e.log})" if e.log else ""
         _say(f"error: {_one_line(e)}{where}")
-        return EXIT_FAILED
+        return EXIT_INTERRUPTED if isinstance(e, RunInterrupted) else EXIT_FAILED
     except HomeDamaged as e:
         _say(f"error: {_one_line(e)}")
         return EXIT_FAILED
     except KeyboardInterrupt:
         _say("error: interrupted; stages already stored are kept, a rerun continues from them")
-        return 130
+        return EXIT_INTERRUPTED
     except Exception as e:  # anything else: one line here, the trace in a log
         trace = traceback.format_exc()
         if getattr(args, "debug", False):

@@ -87,6 +87,18 @@ class StageFailed(RuntimeError):
         super().__init__(f"{shot}: {stage}: {cause}; fix: {fix}")
 
 
+class RunInterrupted(StageFailed):
+    """The run was stopped (Ctrl-C, SIGTERM from `timeout` or a scheduler) while a stage computed: not the stage's
+    fault, so not its fix."""
+
+    def __init__(self, shot: str, stage: str, log: Path | None, trace: str = ""):
+        RuntimeError.__init__(self, f"{shot}: {stage}: interrupted (SIGINT or SIGTERM); fix: rerun: the stages "
+                                    "already stored are kept, and the run goes on from them")
+        self.shot, self.stage, self.cause, self.log, self.trace = shot, stage, "interrupted", log, trace
+
+
+INTERRUPTIONS = ("DagsterExecutionInterruptedError", "KeyboardInterrupt")  # how Dagster reports SIGINT / SIGTERM
+
 DISK_FULL_FIX = "free disk space under INBETWEEN_HOME and the output folder, then rerun (stored stages are kept)"
 DISK_FULL_SIGNS = ("No space left on device", "database or disk is full")  # OSError ENOSPC; SQLite's SQLITE_FULL
 
@@ -404,12 +416,17 @@ def raise_failure(events, shot: str, log_path: Path):
             if e.cls_name == "ShotError":
                 text = e.message.strip().splitlines()[-1]
                 raise RelayedShotError(text.split("ShotError: ", 1)[-1])
+        if any(e.cls_name in INTERRUPTIONS for e in chain):
+            raise RunInterrupted(shot, stage, log_path, err.to_string())
         cause = chain[-1]
         lines = cause.message.strip().splitlines()
         text = lines[0] if lines else "failed"
         raise StageFailed(shot, stage, text if text.startswith(cause.cls_name) else f"{cause.cls_name}: {text}",
                           log_path, err.to_string())
-    raise StageFailed(shot, "run", _run_failure_cause(events), log_path)
+    cause = _run_failure_cause(events)
+    if cause.split(":", 1)[0] in INTERRUPTIONS:
+        raise RunInterrupted(shot, "run", log_path)
+    raise StageFailed(shot, "run", cause, log_path)
 
 
 def open_instance():

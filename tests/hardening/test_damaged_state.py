@@ -103,3 +103,24 @@ def test_a_full_sqlite_database_reads_as_a_full_disk():
     assert "\n" not in line and "database or disk is full" in line and "free disk space" in line
     other = str(StageFailed("arm_cross", "key1/template", "ValueError: no handles", None))
     assert "free disk space" not in other
+
+
+def test_an_interrupted_run_says_so_and_goes_on_when_rerun(warm, tmp_path, monkeypatch, capsys):
+    """Ctrl-C or SIGTERM (which Dagster turns into an interruption) inside a stage: the one line says the run was
+    interrupted and a rerun goes on, not the stage's input advice; the stages stored before it are kept."""
+    import assets.blending as blending
+
+    shutil.rmtree(warm.home / "storage" / warm.partition / "quality_metrics")
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as m:
+        m.setattr(blending, "interpolation_quality", interrupted)
+        assert main(["run", str(warm.shot), "--out", str(tmp_path / "out")]) == 130
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.startswith("error:")]
+    assert len(lines) == 1 and "quality_metrics: interrupted" in lines[0] and "fix: rerun" in lines[0], lines
+    assert "check " not in lines[0]  # no stage's advice about the shot's input
+    assert main(["run", str(warm.shot), "--out", str(tmp_path / "out")]) == 0
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert {n for n, s in report["stages"].items() if not s["cached"]} == {"quality_metrics"}
