@@ -120,6 +120,8 @@ def _load(d: Path, prefix: str, arrays, meta: dict) -> Any:
         if key + ".__type__" in meta:
             kwargs[f.name] = _load(d, key + ".", arrays, meta)
             continue
+        if key not in meta and (f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING):
+            continue  # written before the field existed: its default (the stage is stale anyway, its code changed)
         m = meta[key]
         if "__images__" in m:
             shape = tuple(m["__images__"])
