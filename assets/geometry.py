@@ -96,10 +96,10 @@ def _check_template_folds(template, env) -> tuple[bool, str]:
 def _textured(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Depth weights (bounded biharmonic) and texture of every layer; unseen parts inpainted (§5.1)."""
-        shot = env.shot
+        shot, s = env.shot, env.settings
         textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
-                                        env.read(f"key{1 - k}/refined_masks"), shot.key_pose(k),
-                                        env.resource("inpainter").get())
+                                        env.read(f"key{1 - k}/refined_masks"), shot.key_pose(k), shot.key_pose(1 - k),
+                                        env.resource("inpainter").get(), s.mu, s.grad_tol, s.max_iter)
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),

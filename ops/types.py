@@ -136,8 +136,6 @@ class Template:
     trials: int  # topologies evaluated
     mode: str  # "optimized" | "single-layer"
     warnings: list[str] = field(default_factory=list)
-    # (n, 2) float64 pixels: the chosen topology deformed to the other keyframe's pose (None if that failed)
-    at_other: np.ndarray | None = None
 
     def handle_targets(self, pose: np.ndarray) -> np.ndarray:
         """(h, 2) float64 handle target positions for a (J, 3) pose (ops.geometry.handles)."""

@@ -16,15 +16,14 @@ from ops.types import DeformedSequence, RefinedMasks, Template, TexturedTemplate
 
 
 def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks, pose: np.ndarray,
-                 inpainter: Inpainter) -> tuple[TexturedTemplate, float]:
-    """Depth weights + textures (§5.1) from both keyframes' masks, this key pose (J, 3) and the template's own
-    deformation to the other key pose (Template.at_other, from the cut search) -> (textured, energy there)."""
-    if template.at_other is None:
-        raise ValueError("the template has no deformation to the other keyframe's pose (its cut search failed to "
-                         "deform any topology there): it cannot be textured from the other keyframe")
+                 other_pose: np.ndarray, inpainter: Inpainter, mu: float = 200.0, grad_tol: float = 0.01,
+                 max_iter: int = 5000) -> tuple[TexturedTemplate, float]:
+    """Depth weights + textures (§5.1) from both keyframes' masks and key poses (J, 3) -> (textured, energy at the other)."""
     weights = depth_weights(template)
-    textured = texture_template(template, weights, own, other, pose, template.at_other, inpainter)
-    return textured, float(template.energy)
+    deformer = Deformer(template.rest, template.faces, template.handles, mu=mu)
+    to_other = deformer.solve(template.handle_targets(other_pose), grad_tol=grad_tol, max_iter=max_iter)
+    textured = texture_template(template, weights, own, other, pose, to_other.x, inpainter)
+    return textured, float(to_other.energy)
 
 
 def deform_lane(textured: TexturedTemplate, times: np.ndarray, poses: np.ndarray, backward: bool,

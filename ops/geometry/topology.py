@@ -16,8 +16,6 @@ follows the motion between the two key poses in PATH_STEPS steps
 (Deformer.solve_along): it reaches the minimum the lane's frame-by-frame
 deformation reaches, where a direct solve often stopped in a crumpled one,
 so each topology is scored by the deformation the lane will actually show.
-The chosen topology's deformation is kept with the template (`at_other`):
-texturing samples the other keyframe through it.
 """
 from __future__ import annotations
 
@@ -239,7 +237,7 @@ def optimize_topology(
     for r in range(base.n_regions):
         choice[r] = _region_optimum(search, choice, r, options, sizes[r], ks[r], seed)
     energy = search.score(tuple(choice), options)
-    _, inc, assign, at_other = search.cache[tuple(choice)]
+    _, inc, assign, _ = search.cache[tuple(choice)]
     warnings = base.warnings + inc.warnings
     if not np.isfinite(energy):
         warnings.append("no topology deformed to the other keyframe's pose without failure")
@@ -247,7 +245,7 @@ def optimize_topology(
         rest=inc.rest, faces=inc.faces, face_layer=inc.face_layer, handles=inc.handles,
         handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
         cut_assignment=[a.labels.copy() for a in assign],
-        energy=float(energy), trials=len(search.cache), mode=mode, warnings=warnings, at_other=at_other,
+        energy=float(energy), trials=len(search.cache), mode=mode, warnings=warnings,
     )
 
 
