@@ -207,8 +207,8 @@ class Deformer:
         previous solution; the intermediate ones only to gradient norm step_tol, the last to grad_tol.
 
         A direct solve from rest to a far pose starts where the pose term dwarfs everything else, and L-BFGS can
-        settle in a crumpled minimum after thousands of iterations (the samples' templates: 163k iterations,
-        energies up to 9x those of this path); a few steps along the motion reach the minimum the lanes'
+        settle in a crumpled minimum after thousands of iterations (over the samples' topologies: 163k iterations
+        in all, energies up to 7x those of this path); a few steps along the motion reach the minimum the lanes'
         frame-by-frame deformation reaches, in a third of the iterations. Returns the last solve, with
         iterations and the energy history of all steps.
         """

@@ -180,14 +180,14 @@ class _Search:
     def __init__(self, base: TemplateBase, path: list[np.ndarray], solver: Solver):
         """base: the front-sheet template; path: (h, 2) handle targets towards the other pose, pixels."""
         self.base, self.path, self.solver = base, path, solver
-        self.cache: dict[tuple, tuple[float, Incised, list[Assignment], np.ndarray | None]] = {}
+        self.cache: dict[tuple, tuple[float, Incised, list[Assignment]]] = {}
 
     def score(self, choice: tuple, options: list) -> float:
         """Energy of the per-region option indices `choice` (options[r](i) -> Assignment)."""
         if choice not in self.cache:
             assign = [options[r](i) for r, i in enumerate(choice)]
-            e, inc, x = evaluate(self.base, assign, self.path, self.solver)
-            self.cache[choice] = (e, inc, assign, x)
+            e, inc, _ = evaluate(self.base, assign, self.path, self.solver)
+            self.cache[choice] = (e, inc, assign)
         return self.cache[choice][0]
 
 
@@ -237,7 +237,7 @@ def optimize_topology(
     for r in range(base.n_regions):
         choice[r] = _region_optimum(search, choice, r, options, sizes[r], ks[r], seed)
     energy = search.score(tuple(choice), options)
-    _, inc, assign, _ = search.cache[tuple(choice)]
+    _, inc, assign = search.cache[tuple(choice)]
     warnings = base.warnings + inc.warnings
     if not np.isfinite(energy):
         warnings.append("no topology deformed to the other keyframe's pose without failure")
