@@ -108,17 +108,40 @@ def test_the_process_leaves_past_a_stage_still_computing_ahead():
 
     code = (
         "import sys, threading, time\n"
-        "from assets.cli import leave_past_workers\n"
+        "from assets.cli import leave\n"
         "threading.Thread(target=time.sleep, args=(30,), name='inbetween-ahead-0', daemon=True).start()\n"
         "print('error: said before leaving', end='')\n"
-        "leave_past_workers(3, wait_s=0.1)\n"
+        "leave(3, wait_s=0.1)\n"
         "sys.exit(0)\n"
     )
     t0 = time.monotonic()
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=20)
     assert done.returncode == 3 and done.stdout == "error: said before leaving"
     assert time.monotonic() - t0 < 15
-    # no thread computing ahead: the function returns and the interpreter ends as usual
-    quiet = subprocess.run([sys.executable, "-c", "from assets.cli import leave_past_workers\n"
-                            "leave_past_workers(3)\nprint('went on')"], capture_output=True, text=True, timeout=20)
-    assert quiet.returncode == 0 and quiet.stdout.strip() == "went on"
+
+
+def test_a_finished_command_leaves_without_tearing_the_interpreter_down():
+    """Done and nothing computing: the exit code is the command's, the atexit handlers ran (a run's log is
+    flushed by logging's), and what was printed to a pipe arrives; nothing after leave() runs."""
+    import subprocess
+    import sys
+
+    code = (
+        "import atexit, logging, sys\n"
+        "from assets.cli import leave\n"
+        "atexit.register(lambda: print('atexit ran', end=''))\n"
+        "handler = logging.FileHandler(sys.argv[1])\n"
+        "logging.getLogger('x').addHandler(handler)\n"
+        "logging.getLogger('x').warning('logged')\n"
+        "print('said; ', end='')\n"
+        "leave(4)\n"
+        "print('went on')\n"
+    )
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as d:
+        log = Path(d) / "run.log"
+        done = subprocess.run([sys.executable, "-c", code, str(log)], capture_output=True, text=True, timeout=20)
+        assert done.returncode == 4 and done.stdout == "said; atexit ran", done
+        assert log.read_text().strip() == "logged"
