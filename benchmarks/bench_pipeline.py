@@ -34,14 +34,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 ORIGINAL = ("arm_cross", "legs_cross", "manual_masks", "no_occlusion", "tail", "two_poses")
-# runs the CLI, then notes whether the process imported torch or Dagster
-_CLI = ("import json, runpy, sys\n"
+# runs the CLI; an atexit handler notes whether the process imported torch or Dagster (the CLI leaves with
+# os._exit once done, after running the atexit handlers: code after the command would never run)
+_CLI = ("import atexit, json, os, runpy, sys\n"
         "sys.argv = ['inbetween', *json.loads(sys.argv[1])]\n"
-        "code = 0\n"
-        "try:\n    runpy.run_module('assets.cli', run_name='__main__')\n"
-        "except SystemExit as e:\n    code = e.code\n"
-        "json.dump({'rc': code, 'torch': 'torch' in sys.modules, 'dagster': 'dagster' in sys.modules},"
-        " open(__import__('os').environ['BENCH_MODULES'], 'w'))\n")
+        "atexit.register(lambda: json.dump({'torch': 'torch' in sys.modules, 'dagster': 'dagster' in sys.modules},"
+        " open(os.environ['BENCH_MODULES'], 'w')))\n"
+        "runpy.run_module('assets.cli', run_name='__main__')\n")
 
 
 def _tree_rss(pid: int) -> tuple[int, int]:
@@ -91,9 +90,9 @@ def cli(args: list[str], home: Path) -> dict:
     wall = time.perf_counter() - start
     done.set()
     err = proc.stderr.read().decode(errors="replace")
-    flags = json.loads(modules.read_text()) if modules.exists() else {"rc": status}
+    flags = json.loads(modules.read_text()) if modules.exists() else {}
     modules.unlink(missing_ok=True)
-    if flags["rc"] not in (0, None):
+    if os.waitstatus_to_exitcode(status) != 0:
         raise RuntimeError(f"inbetween {' '.join(args)} failed:\n{err[-2000:]}")
     peak_largest = max(peak[1], usage.ru_maxrss * 1024)
     return {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime, "rss_sum": max(peak[0], peak_largest),
