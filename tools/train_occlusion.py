@@ -3,7 +3,7 @@
 Reproduces ops/segmentation/occlusion_unet.npz from the generator (data_samples/generator/occlusion_set.py):
 train-split samples 0 .. N-1 only (the test split is never read), fixed seeds for the crops, augmentation
 and initialisation, torch on the CPU with a fixed thread count. At the end it writes the weights and
-patches WEIGHTS_SHA256 in occlusion_net.py, so the stages using the network get a new code version.
+patches WEIGHTS_SHA256 in occlusion_infer.py, so the stages using the network get a new code version.
 
     python tools/train_occlusion.py --cache /tmp/occ_cache [--samples 2000] [--steps 1500] [--threads 2]
 
@@ -109,8 +109,8 @@ def loss_fn(logits: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
 
 
 def set_sha(digest: str) -> None:
-    """Write the new weights' sha256 into ops/segmentation/occlusion_net.py."""
-    path = ROOT / "ops" / "segmentation" / "occlusion_net.py"
+    """Write the new weights' sha256 into ops/segmentation/occlusion_infer.py (which occlusion_net.py imports)."""
+    path = ROOT / "ops" / "segmentation" / "occlusion_infer.py"
     text = path.read_text()
     text = re.sub(r'WEIGHTS_SHA256 = "[0-9a-f]{64}"', f'WEIGHTS_SHA256 = "{digest}"', text)
     path.write_text(text)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ops.segmentation.occlusion_net import STRIDE
+from ops.segmentation.occlusion_infer import STRIDE
 from ops.segmentation.skeleton_guide import guide_channels
 from ops.types import Skeleton
 

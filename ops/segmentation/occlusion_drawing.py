@@ -1,8 +1,8 @@
 """Occlusion masks read from the drawing with the skeleton as a guide (§4.1, issue 15).
 
-A small U-Net (ops.segmentation.occlusion_net), trained on generated characters, marks every pixel where
-one part covers another: an arm across the body, a round thigh inside a round belly, a skirt over the
-thighs, crossing shins, joint overlaps. It sees the drawing's strokes and colour edges and, through the
+A small U-Net (ops.segmentation.occlusion_net; run in NumPy by ops.segmentation.occlusion_infer), trained on
+generated characters, marks every pixel where one part covers another: an arm across the body, a round thigh
+inside a round belly, a skirt over the thighs, crossing shins, joint overlaps. It sees the drawing's strokes and colour edges and, through the
 skeleton channels, which bones are near and which of them is nearer the viewer. Its mask (inside the
 foreground) splits into connected regions; each region's front bones come from the skeleton: at every
 pixel, of the two nearest bones whose bodies reach it, the one with the smaller depth is in front.
@@ -18,14 +18,13 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
-import torch
 from scipy import ndimage
 
 from ops.segmentation.bones import bone_depths, bone_radii, thick_regions
 from ops.segmentation.contacts import drawn_bodies, stroke_reach
 from ops.segmentation.network_input import from_work, network_input, resample, to_work
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
-from ops.segmentation.occlusion_net import load_network
+from ops.segmentation.occlusion_infer import occlusion_logits
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import Skeleton
 
@@ -177,8 +176,7 @@ def occlusion_marks(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     image = drawing if drawing.dtype == np.uint8 and drawing.ndim == 3 else to_uint8(drawing)
     fg = np.asarray(foreground, bool)
     x, frame = network_input(image, fg, pose, skeleton)
-    with torch.inference_mode():
-        prob = torch.sigmoid(load_network()(torch.from_numpy(x)[None]))[0, 0].numpy()
+    prob = 1.0 / (1.0 + np.exp(-occlusion_logits(x)))
     h, w = frame.work_shape()
     x0, y0, x1, y1 = frame.box
     wfg = resample(fg[y0:y1, x0:x1].astype(np.float32), (h, w)) > 0.5

@@ -1,4 +1,4 @@
-"""A small U-Net that reads occlusion from a drawing and its skeleton (§4.1), and its shipped weights.
+"""A small U-Net that reads occlusion from a drawing and its skeleton (§4.1), in torch: for training.
 
 The paper predicts occlusion masks with a U-Net on a DINOv2 backbone whose weights are not public; this one
 is trained from scratch on the generated characters of data_samples/ (tools/train_occlusion.py, fixed seed)
@@ -11,7 +11,6 @@ joint overlaps included).
 """
 from __future__ import annotations
 
-import hashlib
 from functools import lru_cache
 from pathlib import Path
 
@@ -20,15 +19,17 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from ops.segmentation.skeleton_guide import GUIDE_CHANNELS
-
-IN_CHANNELS = 3 + GUIDE_CHANNELS
-STRIDE = 16  # the input's sides must be multiples of this (four halvings)
-WIDTHS = (16, 24, 32, 48)
-HEAD_WIDTH = 12
-WEIGHTS_PATH = Path(__file__).with_name("occlusion_unet.npz")
-# sha256 of WEIGHTS_PATH: a retrained network changes this module, hence the code version of the stages using it
-WEIGHTS_SHA256 = "1eb869871054638ce8905563fb882d5fb8d4102c75b1312e6cb1dbbfd951dbbc"
+# the architecture's sizes and the weights file live with the NumPy forward pass (inference needs no torch)
+from ops.segmentation.occlusion_infer import (  # noqa: F401  (re-exported for training and tests)
+    HEAD_WIDTH,
+    IN_CHANNELS,
+    STRIDE,
+    WEIGHTS_PATH,
+    WEIGHTS_SHA256,
+    WIDTHS,
+    check_weights,
+    file_sha256,
+)
 
 
 def _conv(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int = 1) -> nn.Sequential:
@@ -67,11 +68,6 @@ class OcclusionUNet(nn.Module):
         return self.head(torch.cat([up(d1, x), x], 1))
 
 
-def file_sha256(path: Path) -> str:
-    """Hex sha256 of a file's bytes."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def save_weights(net: OcclusionUNet, path: Path) -> str:
     """Write the network's state as float32 arrays in an .npz (no pickle); returns the file's sha256."""
     state = {k: v.detach().cpu().numpy().astype(np.float32) for k, v in net.state_dict().items()
@@ -84,13 +80,7 @@ def save_weights(net: OcclusionUNet, path: Path) -> str:
 def load_network(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> OcclusionUNet:
     """The trained network in eval mode, after checking the weights file's sha256 (shipped in the repository)."""
     p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"{p}: occlusion network weights missing; fix: run tools/train_occlusion.py or "
-                                "use settings occlusion='skeleton'")
-    digest = file_sha256(p)
-    if sha256 and digest != sha256:
-        raise ValueError(f"{p}: sha256 {digest} differs from the expected {sha256}; fix: restore the file from the "
-                         "repository or retrain with tools/train_occlusion.py (it updates WEIGHTS_SHA256)")
+    check_weights(p, sha256)
     net = OcclusionUNet()
     with np.load(p) as z:
         state = {k: torch.from_numpy(z[k]) for k in z.files}

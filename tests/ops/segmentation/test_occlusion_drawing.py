@@ -97,6 +97,46 @@ def test_shipped_weights_match_their_checksum_and_load():
         assert net(x).shape == (1, 1, 32, 48)
 
 
+def test_numpy_forward_pass_is_the_torch_network():
+    """Inference runs the shipped weights in NumPy (BatchNorm folded into the convolutions); training's torch
+    module is the reference: same logits on random inputs of several sizes and on a real keyframe's input."""
+    from ops.segmentation.network_input import network_input
+    from ops.segmentation.occlusion_infer import occlusion_logits
+
+    net = occlusion_net.load_network()
+    rng = np.random.default_rng(0)
+    drawing, pose, skeleton, _, _, _ = crossing_scene()
+    fg = segment_foreground(drawing, pose, skeleton).mask
+    inputs = [rng.standard_normal((occlusion_net.IN_CHANNELS, h, w)).astype(np.float32)
+              for h, w in ((16, 16), (32, 48), (96, 64))] + [network_input(to_uint8(drawing), fg, pose, skeleton)[0]]
+    for x in inputs:
+        with torch.inference_mode():
+            ref = net(torch.from_numpy(x)[None])[0, 0].numpy()
+        got = occlusion_logits(x)
+        assert got.shape == ref.shape and got.dtype == np.float32
+        assert np.abs(got - ref).max() <= 1e-4 * max(1.0, np.abs(ref).max())
+    with pytest.raises(ValueError, match="multiples of 16"):
+        occlusion_logits(inputs[0][:, :15])
+
+
+def test_the_masks_never_import_torch():
+    """The masks stages run the network without torch: a cold run's two lanes no longer wait on its import."""
+    import subprocess
+    import sys
+
+    code = ("import sys\n"
+            "from tests.ops.segmentation.test_masks import crossing_scene\n"
+            "from ops.segmentation.masks import build_masks\n"
+            "drawing, pose, skeleton, *_ = crossing_scene()\n"
+            "for predictor in ('hybrid', 'drawing'):\n"
+            "    assert build_masks(drawing, pose, skeleton, occlusion=predictor).occlusion\n"
+            "print('torch' in sys.modules)\n")
+    root = str(__import__("pathlib").Path(__file__).resolve().parents[3])
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=root,
+                          env={**__import__("os").environ, "PYTHONPATH": root})
+    assert done.returncode == 0 and done.stdout.strip() == "False", done.stderr[-2000:]
+
+
 def test_tampered_weights_are_refused(tmp_path):
     bad = tmp_path / "w.npz"
     bad.write_bytes(occlusion_net.WEIGHTS_PATH.read_bytes() + b"x")
