@@ -7,14 +7,13 @@ import numpy as np
 
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
+from ops.blending.image_matrix import alpha_grid
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import (
-    coverage_weight,
     interpolation_quality,
+    quality_inputs,
     quality_table,
-    texture_quality,
-    unreliable_share,
 )
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
@@ -23,13 +22,6 @@ from .stage import StageEnv, StageResult, stage_asset
 
 if TYPE_CHECKING:  # pandas is imported by the stages that build tables, not with the Definitions
     import pandas as pd
-
-
-def _quality_inputs(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.ndarray):
-    """(unreliable-texture shares (T,) of both sequences, q (T, A), coverage weight (T, H, W) of Q)."""
-    share0, share1 = unreliable_share(seq0), unreliable_share(seq1)
-    weight = coverage_weight(seq0.images[..., 3], seq1.images[..., 3])
-    return share0, share1, texture_quality(share0, share1, alphas), weight
 
 
 def _rife_matrix(env: StageEnv) -> StageResult:
@@ -42,7 +34,8 @@ def _rife_matrix(env: StageEnv) -> StageResult:
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
     s = env.settings
-    matrix = path_matrix(seq0, seq1, env.resource("rife").load(), s.alpha_depth, s.epsilon, s.blend,
+    _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(s.alpha_depth))
+    matrix = path_matrix(seq0, seq1, q, weight, env.resource("rife").load(), s.alpha_depth, s.epsilon, s.blend,
                          env.resource("rife").batch)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
     meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
@@ -56,7 +49,7 @@ def _quality(env: StageEnv) -> StageResult:
     matrix: ImageMatrix = env.read("rife_matrix")
     seq0: DeformedSequence = env.read("key0/deformed_frames")
     seq1: DeformedSequence = env.read("key1/deformed_frames")
-    share0, share1, q, weight = _quality_inputs(seq0, seq1, matrix.alphas)
+    share0, share1, q, weight = quality_inputs(seq0, seq1, matrix.alphas)
     Q = interpolation_quality(matrix.flows, weight)
     table = quality_table(matrix.times, matrix.alphas, q, Q)
     meta = {"Q_max": float(Q.max()), "Q_mean": float(Q.mean()), "q_max": float(q.max()),

@@ -276,34 +276,23 @@ def main(argv: list[str] | None = None) -> int:
 
 def leave(code: int, wait_s: float = 0.5) -> None:
     """Exit with `code` now, without finalizing the interpreter: the command is done, every output is written
-    and closed.
+    and closed (runs.exit_without_teardown: 0.5 s of every command that loaded torch and Dagster).
 
-    Finalizing tears down every module and object a run loaded (torch, Dagster, SQLAlchemy): 0.5 s on this
-    machine, a twentieth of a cold run, for nothing. The atexit handlers still run (logging flushes the run's
-    log) unless a stage still computes on a work-ahead thread (assets/ahead.py) after `wait_s` seconds: after
-    another stage failed, that thread may be inside native code (torch, Triangle, OpenCV), and finalizing
-    under it aborted the process now and then ("terminate called without an active exception", killed by
-    SIGABRT instead of exiting 1); the store already discards what that stage would write.
+    The atexit handlers still run unless a stage still computes on a work-ahead thread (assets/ahead.py) after
+    `wait_s` seconds: after another stage failed, that thread may be inside native code (torch, Triangle,
+    OpenCV), and finalizing under it aborted the process now and then ("terminate called without an active
+    exception", killed by SIGABRT instead of exiting 1); the store already discards what that stage would write.
     """
-    import atexit
-    import logging
     import threading
+
+    from .runs import exit_without_teardown
 
     # named so by assets/ahead.py, not imported here: it brings Dagster, and most commands never load it
     workers = [t for t in threading.enumerate() if t.name.startswith("inbetween-ahead")]
     deadline = time.monotonic() + wait_s
     for t in workers:
         t.join(max(0.0, deadline - time.monotonic()))
-    if any(t.is_alive() for t in workers):
-        logging.shutdown()
-    else:
-        getattr(atexit, "_run_exitfuncs", logging.shutdown)()  # CPython's; else at least the logs are flushed
-    for stream in (sys.stdout, sys.stderr):
-        try:
-            stream.flush()
-        except (OSError, ValueError):
-            pass
-    os._exit(code)
+    exit_without_teardown(code, run_atexit=not any(t.is_alive() for t in workers))
 
 
 def _main(argv: list[str] | None) -> int:

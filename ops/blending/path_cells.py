@@ -17,7 +17,7 @@ import numpy as np
 
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
-from ops.blending.quality import coverage_weight, interpolation_quality, texture_quality, unreliable_share
+from ops.blending.quality import interpolation_quality
 from ops.types import DeformedSequence, ImageMatrix
 
 if TYPE_CHECKING:
@@ -36,13 +36,12 @@ def path_cells(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, times: np.ndarr
     return cells
 
 
-def path_matrix(seq0: DeformedSequence, seq1: DeformedSequence, rife: Rife, depth: int, epsilon: float,
-                blend: str = "optimal", batch: int = 1) -> ImageMatrix:
+def path_matrix(seq0: DeformedSequence, seq1: DeformedSequence, q: np.ndarray, weight: np.ndarray, rife: Rife,
+                depth: int, epsilon: float, blend: str = "optimal", batch: int = 1) -> ImageMatrix:
     """The image matrix of two deformed sequences with only the cells of `blend`'s path (and their bisection's
-    parents) blended: q from the sequences, Q from the alpha-1/2 flows once they are known."""
+    parents) blended: q (T, A) and the coverage weight (T, H, W) of Q (ops.blending.quality.quality_inputs)
+    known, Q from the alpha-1/2 flows once they are."""
     alphas = alpha_grid(depth)
-    q = texture_quality(unreliable_share(seq0), unreliable_share(seq1), alphas)
-    weight = coverage_weight(seq0.images[..., 3], seq1.images[..., 3])
 
     def wanted(flows: np.ndarray) -> np.ndarray:
         return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon, blend)

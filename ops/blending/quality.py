@@ -87,6 +87,15 @@ def coverage_weight(alpha0: np.ndarray, alpha1: np.ndarray) -> np.ndarray:
     return (np.asarray(alpha0) > 0) | (np.asarray(alpha1) > 0)
 
 
+def quality_inputs(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(unreliable-texture shares (T,) of both sequences, q (T, A) at alphas (A,), the coverage weight
+    (T, H, W) of Q): what the path's costs need of the two deformed sequences."""
+    share0, share1 = unreliable_share(seq0), unreliable_share(seq1)
+    weight = coverage_weight(seq0.images[..., 3], seq1.images[..., 3])
+    return share0, share1, texture_quality(share0, share1, alphas), weight
+
+
 def quality_table(times: np.ndarray, alphas: np.ndarray, q: np.ndarray, Q: np.ndarray) -> pd.DataFrame:
     """times: (T,), alphas: (A,), q: (T, A), Q: (T,) -> long DataFrame (t, alpha, q, Q), T * A rows, t-major."""
     times = np.asarray(times, dtype=np.float64)

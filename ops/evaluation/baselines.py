@@ -13,7 +13,7 @@ import numpy as np
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
-from ops.blending.quality import coverage_weight, interpolation_quality, texture_quality, unreliable_share
+from ops.blending.quality import interpolation_quality, quality_inputs
 from ops.evaluation.metrics import chamfer, psnr, ssim
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix
 
@@ -50,9 +50,9 @@ def cross_dissolve(key0: np.ndarray, key1: np.ndarray, times: np.ndarray) -> np.
 def blend_sequences(seq0: DeformedSequence, seq1: DeformedSequence, rife, depth: int = 3,
                     epsilon: float = 0.02) -> tuple[ImageMatrix, BlendPaths]:
     """§5.2 in one call (for the ablation): matrix (the optimal path's cells blended), q and Q, and both paths."""
-    matrix = path_matrix(seq0, seq1, rife, depth, epsilon)
-    q = texture_quality(unreliable_share(seq0), unreliable_share(seq1), matrix.alphas)
-    Q = interpolation_quality(matrix.flows, coverage_weight(seq0.images[..., 3], seq1.images[..., 3]))
+    _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(depth))
+    matrix = path_matrix(seq0, seq1, q, weight, rife, depth, epsilon)
+    Q = interpolation_quality(matrix.flows, weight)
     paths = BlendPaths(matrix.times, matrix.alphas, optimal_path(q, Q, matrix.alphas, epsilon=epsilon),
                        diagonal_path(q, Q, matrix.alphas, matrix.times))
     return matrix, paths

@@ -104,11 +104,11 @@ class Deformer:
         self.norm = normalization(self.rest, self.faces)
         self.rest_n = self.norm.to_norm(self.rest)
         self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu)
-        self._free_groups = self._setup_preconditioner(mu)
+        self._setup_preconditioner(mu)
         self._edges = _edge_operator(self.faces, len(self.rest))
 
-    def _setup_preconditioner(self, mu: float) -> list[np.ndarray]:
-        """Factorize P; return the vertex groups (components without handles) whose mean is projected out."""
+    def _setup_preconditioner(self, mu: float) -> None:
+        """Factorize P; label the vertices of components without handles, whose mean is projected out."""
         n = len(self.rest_n)
         L = -igl.cotmatrix(self.rest_n, self.faces)
         hdiag = np.bincount(self.handles, minlength=n).astype(np.float64) * 2.0 * mu
@@ -117,30 +117,30 @@ class Deformer:
         has_handle = np.zeros(comp.max() + 1, bool)
         has_handle[comp[self.handles]] = True
         free = ~has_handle[comp]
-        free_comps = np.nonzero(~has_handle)[0]
-        # each vertex of a handle-free component -> its group (0 .. g-1), the others -> g (dropped)
-        group_of = np.full(comp.max() + 1, len(free_comps), np.int64)
-        group_of[free_comps] = np.arange(len(free_comps))
-        self._group = group_of[comp]
-        self._group_size = np.bincount(self._group, minlength=len(free_comps) + 1)[:-1].astype(np.float64)
-        groups = [np.nonzero(comp == c)[0] for c in free_comps]
+        # each vertex of a handle-free component -> its group 0 .. g-1 (the others are never projected)
+        group_of = np.full(comp.max() + 1, -1, np.int64)
+        group_of[~has_handle] = np.arange(int((~has_handle).sum()))
+        self._free = np.nonzero(free)[0]
+        self._group = group_of[comp[self._free]]
+        self._group_size = np.bincount(self._group).astype(np.float64)
         if free.any():
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))
             mass = np.where(mass > 0, mass, 1.0 / max(n, 1))
             P = P + sp.diags(1e-6 * mass * free)
         self._solve_P = splu(sp.csc_matrix(P)).solve
-        return groups
+
+    @property
+    def _free_groups(self) -> list[np.ndarray]:
+        """The vertex ids of each handle-free component."""
+        return [self._free[self._group == g] for g in range(len(self._group_size))]
 
     def precondition(self, G: np.ndarray) -> np.ndarray:
         """P^-1 G for G (n, 2), with handle-free components' translation removed (a linear map of G)."""
         D = self._solve_P(G)
-        if self._free_groups:
-            g, k = self._group, len(self._group_size)
-            mean = np.stack([np.bincount(g, D[:, c], minlength=k + 1)[:k] for c in (0, 1)], axis=1)
-            mean /= self._group_size[:, None]
-            free = g < k
-            D[free] -= mean[g[free]]
+        if len(self._free):
+            mean = np.stack([np.bincount(self._group, D[self._free, c]) for c in (0, 1)], axis=1)
+            D[self._free] -= (mean / self._group_size[:, None])[self._group]
         return D
 
     def energy(self, x: np.ndarray, targets: np.ndarray) -> float:

@@ -160,6 +160,12 @@ def pose_path(pose_self: np.ndarray, pose_other: np.ndarray, parents: np.ndarray
     return [interpolate_pose(pose_self, pose_other, i / steps, parents) for i in range(1, steps)] + [pose_other]
 
 
+def handle_path(base: TemplateBase, pose_self: np.ndarray, pose_other: np.ndarray, parents: np.ndarray) -> list:
+    """(h, 2) handle targets, pixels, of the template at each pose of pose_path: what a topology is scored on."""
+    return [handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, pose)
+            for pose in pose_path(pose_self, pose_other, parents)]
+
+
 def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.ndarray],
              solver: Solver = Solver()) -> tuple[float, Incised, np.ndarray | None]:
     """Energy (inf on failure) of deforming the incised template from rest along handle targets path (each
@@ -224,9 +230,7 @@ def optimize_topology(
 ) -> Template:
     """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3)."""
     base = build_template(refined, pose_self, skeleton, mode, max_area)
-    path = [handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, pose)
-            for pose in pose_path(pose_self, pose_other, skeleton.parents)]
-    search = _Search(base, path, solver)
+    search = _Search(base, handle_path(base, pose_self, pose_other, skeleton.parents), solver)
     options, sizes, ks = [], [], []
     for r in range(base.n_regions):
         n, jn = len(base.boundaries[r]), base.junctions[r]

@@ -14,13 +14,14 @@ from ops.geometry.topology import (
     count_assignments,
     enumerate_assignments,
     evaluate,
+    handle_path,
     incise,
     odd_assignment,
     optimize_topology,
     pose_path,
     segment_labels,
 )
-from ops.types import RefinedMasks, Skeleton, Template, handle_targets
+from ops.types import RefinedMasks, Skeleton, Template
 from tests.ops.geometry.test_template import capsule, capsule_scene
 
 
@@ -159,8 +160,7 @@ def test_incision_no_junction_detaches_a_sheet(start):
 
 
 def _path(base, sk, p0, p1):
-    return [handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, p)
-            for p in pose_path(p0, p1, sk.parents)]
+    return handle_path(base, p0, p1, sk.parents)
 
 
 def test_optimize_picks_the_lowest_energy():
