@@ -79,10 +79,10 @@ def read_shot_json(shot_dir: str | Path) -> tuple[Path, dict]:
     root = Path(shot_dir).resolve()
     file = root / "shot.json"
     if not file.is_file():
-        raise ShotError(file, "shot.json", "file not found", "create shot.json in the shot directory (see SHOT_FORMAT.md)")
+        raise ShotError(file, "shot.json", "file not found", "create shot.json in the shot directory (the format: docs/shot-format.md)")
     data = _parse_json(file)
     if not isinstance(data, dict):
-        raise ShotError(file, "shot.json", "top level is not an object", "write a JSON object with the fields of SHOT_FORMAT.md")
+        raise ShotError(file, "shot.json", "top level is not an object", "write a JSON object with the fields of docs/shot-format.md")
     return file, data
 
 
