@@ -1,0 +1,1 @@
+"""Skeletons a shot starts from: templates and their placement on a drawing."""
