@@ -1,6 +1,6 @@
 """The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit, worker. It parses, calls, prints.
 
-The work is done by assets/runs.py, the run machinery every front end shares.
+The work is done by assets/run/, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
 (shot, stage, cause, and where the full log is) and exits 1; so does any other
 error (its trace goes to a log under INBETWEEN_HOME/logs/, never to the terminal).
@@ -104,7 +104,7 @@ def _board(args):
 
 
 def _run(args) -> int:
-    from .runs import run_shot
+    from .run import run_shot
 
     board = _board(args)
     name = Path(args.shot_dir).resolve().name
@@ -145,7 +145,7 @@ def _farm_ready(args) -> bool:
 
 def _batch(args) -> int:
     from .console import table
-    from .runs import batch, register
+    from .run import batch, register
 
     board = _board(args)
     root = Path(args.shots_root)
@@ -184,7 +184,7 @@ def _batch(args) -> int:
 
 
 def _status(args) -> int:
-    from .runs import status
+    from .run import status
 
     p = status(args.shot_dir, _settings(args))
     if args.json:
@@ -198,7 +198,7 @@ def _status(args) -> int:
 
 
 def _masks(args) -> int:
-    from .runs import export_masks
+    from .run import export_masks
 
     for path in export_masks(args.shot_dir, args.out, _settings(args), predicted=args.predicted):
         print(path)
@@ -270,34 +270,15 @@ def main(argv: list[str] | None = None) -> int:
     """The `inbetween` command; argv None: this process's own command line, which ends when main returns."""
     code = _main(argv)
     if argv is None:
+        from .run.leave import leave  # without finalizing the interpreter (0.5 s a command)
+
         leave(code)
     return code
 
 
-def leave(code: int, wait_s: float = 0.5) -> None:
-    """Exit with `code` now, without finalizing the interpreter: the command is done, every output is written
-    and closed (runs.exit_without_teardown: 0.5 s of every command that loaded torch and Dagster).
-
-    The atexit handlers still run unless a stage still computes on a work-ahead thread (assets/ahead.py) after
-    `wait_s` seconds: after another stage failed, that thread may be inside native code (torch, Triangle,
-    OpenCV), and finalizing under it aborted the process now and then ("terminate called without an active
-    exception", killed by SIGABRT instead of exiting 1); the store already discards what that stage would write.
-    """
-    import threading
-
-    from .runs import exit_without_teardown
-
-    # named so by assets/ahead.py, not imported here: it brings Dagster, and most commands never load it
-    workers = [t for t in threading.enumerate() if t.name.startswith("inbetween-ahead")]
-    deadline = time.monotonic() + wait_s
-    for t in workers:
-        t.join(max(0.0, deadline - time.monotonic()))
-    exit_without_teardown(code, run_atexit=not any(t.is_alive() for t in workers))
-
-
 def _main(argv: list[str] | None) -> int:
     args = _parser().parse_args(argv)
-    from .runs import HomeDamaged, RunInterrupted, StageFailed, warnings_to_log
+    from .run import HomeDamaged, RunInterrupted, StageFailed, warnings_to_log
 
     if not getattr(args, "verbose", False):
         warnings_to_log()

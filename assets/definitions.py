@@ -32,7 +32,7 @@ from .graph import EVAL_STAGES, SOURCES
 from .home import home, shots_root
 from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets
 
-# the sources this process defines its stages from (assets/runs.py compares it with the files on disk)
+# the sources this process defines its stages from (assets/run/ compares it with the files on disk)
 LOADED_FINGERPRINT = project_fingerprint()
 
 

@@ -28,7 +28,7 @@ def _markdown(df: pd.DataFrame) -> str:
 
 
 def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None) -> int:
-    from .runs import evaluate_stages, run_shot, store
+    from .run import evaluate_stages, run_shot, store
 
     root = Path(root)
     out = Path(out) if out else root.parent / "eval"

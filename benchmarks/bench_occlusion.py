@@ -170,7 +170,7 @@ def end_to_end(shots: list[str]) -> None:
     results: dict[str, dict] = defaultdict(dict)
     for m in METHODS:
         os.environ["INBETWEEN_HOME"] = homes[m]  # read on every call (assets/home.py)
-        from assets.runs import evaluate_stages, run_shot, store
+        from assets.run import evaluate_stages, run_shot, store
 
         for name in shots:
             d = ROOT / "data_samples" / name

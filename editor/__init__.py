@@ -1,6 +1,6 @@
 """The annotation editor: a local web app to fix a shot's annotations and watch its incremental rerun.
 
 `inbetween edit SHOT_DIR` serves it on 127.0.0.1 (editor/server.py). The Python side is a thin Starlette
-app over the same run machinery as the CLI (assets/runs.py); the page is plain ES modules and canvas
+app over the same run machinery as the CLI (assets/run/); the page is plain ES modules and canvas
 (editor/static/), with no build step. Nothing in assets/, resources/ or ops/ imports this package.
 """

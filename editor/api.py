@@ -17,7 +17,7 @@ from starlette.responses import JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
 from assets.graph import PARENTS, SOURCES, STAGES
-from assets.runs import plan
+from assets.run import plan
 from ops.errors import ShotError
 from ops.preview import to_png_bytes
 from ops.shotio.image_io import image_size, read_image, to_rgba

@@ -7,7 +7,7 @@ always runs the code on disk. The subprocess appends every stage event to a prog
 One rerun at a time. A rerun asked for while one runs *supersedes* it: the running one is stopped at once
 and the new one starts. Nothing is lost: every stage output is written atomically with its provenance, so
 the stages the stopped run finished are reused when their inputs did not change, and the shot's lock
-(assets/runs.py) is released when the old process exits.
+(assets/run/) is released when the old process exits.
 
 The status is kept in WORKDIR/rerun.json. An editor restarted while a rerun runs follows that process to
 its end; if the process died with the editor, the rerun starts again.

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from assets.codeversion import ROOT
 from assets.home import ensure_home, home
-from assets.runs import register, store
+from assets.run import register, store
 from ops.errors import ShotError
 from ops.settings import Settings
 from ops.shotio.load import read_shot_json

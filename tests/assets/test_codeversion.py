@@ -108,7 +108,7 @@ def test_new_ops_module_imported_by_an_op_is_covered(tmp_path):
     (tmp_path / "ops" / "geometry" / "newhelper.py").write_text("SCALE = 2.0\n")
     mesh = tmp_path / "ops" / "geometry" / "mesh.py"
     mesh.write_text(mesh.read_text().replace("import numpy as np\n", "import numpy as np\n\nfrom ops.geometry import newhelper  # noqa: F401\n", 1))
-    script = ("import json, warnings; warnings.filterwarnings('ignore'); from assets.runs import _import_code_records; "
+    script = ("import json, warnings; warnings.filterwarnings('ignore'); from assets.run.planning import _import_code_records; "
               "print(json.dumps(_import_code_records()))")
     out = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, check=True,
                          env={"PATH": "/usr/bin:/bin", "INBETWEEN_HOME": str(tmp_path / "home"), "PYTHONPATH": str(tmp_path)})

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from assets import runs
+from assets import run as runs
 from assets.cli import main
 from ops.shotio.image_io import read_image
 

@@ -13,7 +13,7 @@ import pytest
 
 from assets.cli import main
 from assets.graph import PARENTS, STAGES
-from assets.runs import run_shot
+from assets.run import run_shot
 
 from .conftest import frames_of
 

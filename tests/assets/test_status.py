@@ -6,9 +6,10 @@ import json
 
 import pytest
 
-from assets import runs
+from assets import run as runs
 from assets.cli import main
 from assets.graph import STAGES
+from assets.run import planning
 from ops.settings import Settings
 
 pytestmark = pytest.mark.slow
@@ -59,12 +60,12 @@ def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, m
     runs.run_shot(small_shot, out)  # back to the default
 
     # 3. a code change in the template's closure (simulated: the recorded file hashes differ from now)
-    records = runs.code_records()
+    records = planning.code_records()
     edited = {n: dict(r) for n, r in records.items()}
     for r in edited.values():
         if "ops/geometry/template.py" in r:
             r["ops/geometry/template.py"] = "edited"
-    monkeypatch.setattr(runs, "code_records", lambda: edited)
+    monkeypatch.setattr(planning, "code_records", lambda: edited)
     plan = runs.status(small_shot)
     stale = {n for n, s in plan.statuses.items() if s.state != "fresh"}
     assert plan.statuses["key0/template"].causes == ["code changed: ops/geometry/template.py"]

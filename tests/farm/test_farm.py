@@ -143,7 +143,7 @@ def test_forced_farm_run_of_an_unchanged_shot_finds_every_stage_cached(farm, far
     home = Path(farm.env["INBETWEEN_HOME"])
     for key in ("INBETWEEN_HOME", "DAGSTER_HOME", "INBETWEEN_BROKER", "INBETWEEN_POSTGRES_URL", "INBETWEEN_SHOTS"):
         monkeypatch.setenv(key, farm.env[key])
-    from assets.runs import execute, plan
+    from assets.run import execute, plan
     from ops.settings import Settings
 
     stages = ["key0/masks", "key1/template", "rife_matrix", "inbetween_frames"]  # both lanes and the blending

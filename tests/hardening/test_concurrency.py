@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-import assets.runs as runs
-from assets.runs import run_shot
+import assets.run.session as runs
+from assets.run import run_shot
 
 from .conftest import ROOT, SHOT, env_for
 
@@ -177,7 +177,7 @@ def _open_fresh_instance(home: str) -> str:
     os.environ["INBETWEEN_HOME"] = home
     os.environ.pop("DAGSTER_HOME", None)
     from assets.home import ensure_home
-    from assets.runs import open_instance
+    from assets.run.session import open_instance
 
     ensure_home()
     try:

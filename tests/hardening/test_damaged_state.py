@@ -9,7 +9,7 @@ import pytest
 
 import resources.store as store_module
 from assets.cli import main
-from assets.runs import StageFailed, run_shot, status
+from assets.run import StageFailed, run_shot, status
 
 from .conftest import cli
 from .test_damaged_store import _DiskFull

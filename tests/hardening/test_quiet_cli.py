@@ -108,7 +108,7 @@ def test_the_process_leaves_past_a_stage_still_computing_ahead():
 
     code = (
         "import sys, threading, time\n"
-        "from assets.cli import leave\n"
+        "from assets.run.leave import leave\n"
         "threading.Thread(target=time.sleep, args=(30,), name='inbetween-ahead-0', daemon=True).start()\n"
         "print('error: said before leaving', end='')\n"
         "leave(3, wait_s=0.1)\n"
@@ -128,7 +128,7 @@ def test_a_finished_command_leaves_without_tearing_the_interpreter_down():
 
     code = (
         "import atexit, logging, sys\n"
-        "from assets.cli import leave\n"
+        "from assets.run.leave import leave\n"
         "atexit.register(lambda: print('atexit ran', end=''))\n"
         "handler = logging.FileHandler(sys.argv[1])\n"
         "logging.getLogger('x').addHandler(handler)\n"

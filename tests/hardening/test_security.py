@@ -125,7 +125,7 @@ def _rows(db: Path, table: str, column: str):
 
 @pytest.mark.slow
 def test_nothing_under_the_home_is_a_pickle(warm, tmp_path):
-    from assets.runs import run_shot
+    from assets.run import run_shot
 
     warm.forget_dagster_record()  # a run that writes Dagster's event log with our metadata
     run_shot(warm.shot, tmp_path / "out")

@@ -1,0 +1,181 @@
+"""Running shots: validate, lock, plan, run the stages that are not fresh, settle a shot saved meanwhile, and
+write the frames and the report; the same for the evaluation group and for exporting masks.
+
+- `run_shot`: validate the shot, take its partition's lock (a second run of the same shot waits, and says
+  so), plan, run the stages that are not fresh in one in-process Dagster execution, and write the frames
+  and report. When every stage is fresh and the Dagster instance already records the current versions,
+  Dagster is not started at all.
+- A shot saved while it runs is run again on what was saved (`_settle`).
+"""
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from ops.errors import ShotError
+from ops.settings import Settings
+from ops.shotio.load import load_shot
+from ops.shotio.versions import source_versions
+from ops.types import Shot
+
+from .. import progress
+from ..graph import EVAL_STAGES
+from .errors import StageFailed
+from .locks import shot_lock
+from .logs import log_path
+from .planning import SHOT_STAGES, Plan, _remember_ui, plan, register, stage_warnings, store
+from .session import Session, retry_database_locked
+
+EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (assets/farm/, docs/production.md)
+
+
+@retry_database_locked
+def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
+            executor: str = "in_process") -> dict[str, dict]:
+    """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
+    from ..ahead import working_ahead
+
+    session = Session.get(settings)
+    if executor == "celery":
+        session.ensure_partition(p.partition)
+        session.observe(p.partition, p.sources)
+        result = session.materialize_farm(p.shot.root, p.partition, names, log_path(p.partition), verbose)
+        return stage_timings(result.all_events)
+    executed: dict[str, dict] = {}
+
+    def on_event(ev: dict) -> None:
+        if ev["event"] == "done" and ev["partition"] == p.partition:
+            executed[ev["stage"]] = {"seconds": ev["seconds"], "cached": ev["cached"]}
+
+    # the stages compute on two threads as soon as their parents have, ahead of the steps that record them
+    # (from before the instance opens: their outputs are stored and recorded by their steps alone);
+    # the sources' versions are the ones the plan observed (not hashed again per step)
+    with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
+                                                  session.resources):
+        session.ensure_partition(p.partition)
+        session.observe(p.partition, p.sources)
+        session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)
+    return executed
+
+
+def stage_timings(events) -> dict[str, dict]:
+    """{stage: {seconds, cached}} from a run's materializations (steps that ran in other processes)."""
+    out = {}
+    for ev in events:
+        if ev.event_type_value == "ASSET_MATERIALIZATION":
+            mat = ev.event_specific_data.materialization
+            meta = {k: getattr(v, "value", v) for k, v in mat.metadata.items()}
+            out["/".join(mat.asset_key.path)] = {"seconds": meta.get("seconds", 0.0), "cached": meta.get("cached", False)}
+    return out
+
+
+def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None, *,
+             on_wait: Callable[[], None] | None = None, verbose: bool = False, executor: str = "in_process") -> dict:
+    """Run one shot end to end; returns the report (also written to OUT_DIR/report.json).
+
+    executor: "in_process" (this process runs the stages) or "celery" (farm workers do; this process waits).
+    """
+    from ops.shotio.frames import write_outputs
+
+    start = time.perf_counter()
+    settings = settings or Settings()
+    shot = load_shot(shot_dir)  # validate before touching anything
+    partition = register(shot.root)
+    with shot_lock(partition, on_wait):
+        shot, executed = _settle(shot, settings, verbose, executor)
+        st = store()
+        frames = st.read("inbetween_frames", partition)
+        paths = st.read("optimal_path", partition)
+        repairs = stage_warnings(partition)
+    stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
+                  "warnings": repairs.get(n, 0)} for n in SHOT_STAGES}
+    chosen = paths.optimal if settings.blend == "optimal" else paths.diagonal
+    report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
+              "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
+              "blend": settings.blend, "template": settings.template_mode, "stages": stages,
+              "frames_version": st.hash("inbetween_frames", partition),
+              "path": {"cost": float(chosen.cost), "cost_optimal": float(paths.optimal.cost),
+                       "cost_diagonal": float(paths.diagonal.cost),
+                       "abrupt_transitions": [[float(paths.times[i]), float(paths.times[i + 1])]
+                                              for i in range(len(chosen.abrupt)) if chosen.abrupt[i]]}}
+    report["seconds_total"] = round(time.perf_counter() - start, 3)
+    write_outputs(Path(out_dir), frames.frames, report)
+    return report
+
+
+SETTLE_ROUNDS = 3
+
+
+def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_process"
+            ) -> tuple[Shot, dict[str, dict]]:
+    """Run the stages that are not fresh until the shot on disk is the one they ran on.
+
+    A shot saved during the run (from the editor, a text editor) can make a stage read the new shot
+    while its parents were computed from the old one, or fail on the mix. When the sources changed
+    during a round, the saved shot is validated like the first one (ShotError if it is bad) and the
+    stages it touched run again; a failure is reported only if the shot did not change under it.
+    Returns the shot the outputs belong to and {stage: {seconds, cached}} of what executed.
+    """
+    executed: dict[str, dict] = {}
+    for _ in range(SETTLE_ROUNDS):
+        p = plan(shot.root, settings, shot=shot)
+        try:
+            if p.to_run or not p.recorded:
+                # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
+                executed.update(execute(p, settings, p.to_run or list(SHOT_STAGES), verbose, executor))
+                _remember_ui(p, SHOT_STAGES)
+            failure = None
+        except (StageFailed, ShotError) as e:
+            failure = e
+        now = load_shot(shot.root)  # a shot saved meanwhile: validated (ShotError if the saved one is bad)
+        if source_versions(now) == p.sources:
+            if failure is not None:
+                raise failure
+            return now, executed
+        shot = now
+    raise StageFailed(shot.root, "run", f"the shot was saved again during each of {SETTLE_ROUNDS} runs", None)
+
+
+def evaluate_stages(shot_dir: str | Path, settings: Settings | None = None, verbose: bool = False) -> str:
+    """Run a shot's evaluation group (after run_shot); returns its partition key."""
+    settings = settings or Settings()
+    shot = load_shot(shot_dir)
+    partition = register(shot.root)
+    with shot_lock(partition):
+        p = plan(shot.root, settings, EVAL_STAGES, shot=shot)
+        if p.to_run or not p.recorded:
+            execute(p, settings, p.to_run or list(EVAL_STAGES), verbose)
+            _remember_ui(p, EVAL_STAGES)
+    return partition
+
+
+def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None,
+                 predicted: bool = False) -> list[Path]:
+    """Write each keyframe's masks as manual masks accept them (SHOT_FORMAT.md `inbetween masks`):
+    OUT/key{k}_foreground.png and OUT/key{k}_occlusion_{i}.png, 8-bit, 255 = inside, keyframe size.
+
+    The occlusion masks are the refined ones the template is built from (after the T-junctions), unless
+    `predicted`; runs only the mask stages that are not fresh.
+    """
+    from ops.shotio.image_io import write_image
+
+    settings = settings or Settings()
+    stage = "masks" if predicted else "refined_masks"
+    names = tuple(f"key{k}/{n}" for k in (0, 1) for n in ("masks", "refined_masks"))
+    shot = load_shot(shot_dir)
+    partition = register(shot.root)
+    with shot_lock(partition):
+        p = plan(shot.root, settings, names, shot=shot)
+        if p.to_run:
+            execute(p, settings, p.to_run)
+    out, written = Path(out_dir), []
+    out.mkdir(parents=True, exist_ok=True)
+    for k in (0, 1):
+        masks = store().read(f"key{k}/{stage}", partition)
+        written.append(write_image(out / f"key{k}_foreground.png", masks.foreground.astype(np.float32)))
+        for i, region in enumerate(masks.occlusion):
+            written.append(write_image(out / f"key{k}_occlusion_{i}.png", region.astype(np.float32)))
+    return written

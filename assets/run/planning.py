@@ -1,0 +1,150 @@
+"""Planning without Dagster: the status of every stage of a shot (fresh, stale with causes, or missing), decided
+from the shot files and the store alone (assets/provenance.py), and what the Dagster instance already records.
+
+Freshness is ours, not Dagster's: deciding it from the store takes a few milliseconds and needs neither
+Dagster nor torch, so an unchanged rerun ends in a fraction of a second (docs/design.md, "Two engines").
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from ops.settings import Settings
+from ops.shotio.load import load_shot
+from ops.shotio.versions import source_versions
+from ops.types import Shot
+from resources.registry import register_shot
+from resources.store import Store
+
+from ..codeversion import ROOT, project_fingerprint
+from ..graph import STAGES
+from ..home import home, instance_id
+from ..provenance import StageStatus, resolve, to_run
+from .logs import quiet_dagster_warnings
+
+SHOT_STAGES = STAGES
+
+
+def code_records() -> dict[str, dict[str, str]]:
+    """Code record of every stage. Cached in INBETWEEN_HOME keyed by a hash of the project's sources, so the
+    planner needs Dagster (to import the stage definitions) only after the code changed.
+
+    A process that imported the definitions before the sources changed on disk (a long-lived server)
+    holds the old functions: it asks a fresh interpreter for the records of the code as it is now.
+    """
+    cache = home() / "code_records.json"
+    fingerprint = project_fingerprint()
+    try:
+        data = json.loads(cache.read_text())
+        if data.get("fingerprint") == fingerprint:
+            return data["records"]
+    except (OSError, ValueError):
+        pass
+    loaded = sys.modules.get("assets.definitions")
+    if loaded is not None and loaded.LOADED_FINGERPRINT != fingerprint:
+        out = subprocess.run([sys.executable, "-c", "import json; from assets.run.planning import _import_code_records; "
+                              "print(json.dumps(_import_code_records()))"],
+                             capture_output=True, text=True, check=True, cwd=ROOT)
+        records = json.loads(out.stdout.strip().splitlines()[-1])
+    else:
+        records = _import_code_records()
+    cache.parent.mkdir(parents=True, exist_ok=True)
+    tmp = cache.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(json.dumps({"fingerprint": fingerprint, "records": records}))
+    os.replace(tmp, cache)
+    return records
+
+
+def _import_code_records() -> dict[str, dict[str, str]]:
+    quiet_dagster_warnings()
+    from .. import definitions  # noqa: F401  (defining the assets fills STAGE_SPECS)
+    from ..stage import STAGE_SPECS
+
+    return {name: spec.code for name, spec in STAGE_SPECS.items()}
+
+
+@dataclass
+class Plan:
+    """What a run of one shot would do."""
+
+    shot: Shot
+    partition: str
+    sources: dict[str, str]  # source asset -> data version (content hash)
+    statuses: dict[str, StageStatus]  # stage -> status
+    recorded: bool  # the Dagster instance already records exactly these versions (the UI is current)
+
+    @property
+    def to_run(self) -> list[str]:
+        return to_run(self.statuses)
+
+
+def store() -> Store:
+    return Store(home() / "storage")
+
+
+def register(shot_dir: str | Path) -> str:
+    """Partition key of a shot directory (registered on first use)."""
+    return register_shot(home() / "shots.json", shot_dir)
+
+
+def _ui_record_path(partition: str) -> Path:
+    return store().root / partition / "dagster.json"
+
+
+def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[str, ...] = SHOT_STAGES,
+         shot: Shot | None = None) -> Plan:
+    """Validate the shot and decide the status of each of `stages` (ShotError on bad input)."""
+    shot = shot or load_shot(shot_dir)
+    partition = register(shot.root)
+    sources = source_versions(shot)
+    st = store()
+    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages)
+    try:
+        ui = json.loads(_ui_record_path(partition).read_text())
+    except (OSError, ValueError):
+        ui = {}
+    current = {"instance": instance_id(), "sources": sources,
+               "stages": {n: st.hash(n, partition) for n in stages}}
+    recorded = (current["instance"] is not None and ui.get("instance") == current["instance"]
+                and ui.get("sources") == sources
+                and all(ui.get("stages", {}).get(n) == v for n, v in current["stages"].items()))
+    return Plan(shot, partition, sources, statuses, recorded)
+
+
+def _remember_ui(p: Plan, stages: tuple[str, ...]) -> None:
+    """Note what the Dagster instance now records for this partition (so an unchanged rerun needs no Dagster)."""
+    st = store()
+    path = _ui_record_path(p.partition)
+    try:
+        ui = json.loads(path.read_text())
+    except (OSError, ValueError):
+        ui = {}
+    if ui.get("instance") != instance_id():
+        ui = {}
+    ui.update({"instance": instance_id(), "sources": p.sources})
+    ui.setdefault("stages", {}).update({n: st.hash(n, p.partition) for n in stages})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".tmp{os.getpid()}")
+    tmp.write_text(json.dumps(ui))
+    os.replace(tmp, path)
+
+
+def stage_warnings(partition: str, names: tuple[str, ...] = SHOT_STAGES) -> dict[str, int]:
+    """How many input repairs (warnings) each stored stage recorded: {stage: count}, stages without any left out."""
+    st = store()
+    out = {}
+    for name in names:
+        _, recorded = st.provenance(name, partition)
+        n = len((recorded or {}).get("warnings") or [])
+        if n:
+            out[name] = n
+    return out
+
+
+def status(shot_dir: str | Path, settings: Settings | None = None) -> Plan:
+    """The plan of a shot: which stages the next run executes, and why."""
+    return plan(shot_dir, settings)

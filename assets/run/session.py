@@ -1,0 +1,157 @@
+"""The Dagster side of a run: the instance and the Definitions (built once per process), materializing the
+selected stages of one partition in process or on the farm, and SQLite's "database is locked" retried."""
+from __future__ import annotations
+
+import fcntl
+import functools
+import os
+import random
+import time
+from pathlib import Path
+
+from ops.settings import Settings
+
+from ..graph import SOURCES
+from ..home import ensure_home, home, instance_id
+from .errors import HomeDamaged, raise_failure
+from .logs import quiet_dagster_warnings
+
+
+def _database_locked(e: BaseException | None) -> bool:
+    """True when SQLite's "database is locked" is anywhere in the exception, its chain or its stage's trace."""
+    seen = 0
+    while e is not None and seen < 20:
+        if "database is locked" in f"{e} {getattr(e, 'trace', '')}":
+            return True
+        e, seen = e.__cause__ or e.__context__, seen + 1
+    return False
+
+
+LOCKED_ATTEMPTS = 6
+
+
+def retry_database_locked(fn):
+    """Retry `fn` when another process holds the SQLite Dagster instance locked longer than SQLite waits.
+
+    With backoff (about 0.5, 1, 2, 4, 8 s, jittered so two waiting processes do not collide again).
+    Safe to repeat: stages stored by a failed attempt are fresh on the next one, and are not run again.
+    """
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        for attempt in range(LOCKED_ATTEMPTS):
+            try:
+                return fn(*args, **kwargs)
+            except Exception as e:
+                if attempt == LOCKED_ATTEMPTS - 1 or not _database_locked(e):
+                    raise
+                time.sleep(min(8.0, 0.5 * 2**attempt) * (0.5 + random.random()))
+        raise AssertionError("unreachable")
+
+    return wrapper
+
+
+class Session:
+    """The Dagster instance and the Definitions, built once per process per (settings, home).
+
+    The instance is opened on first use (`instance`): a run starts computing its stages (assets/ahead.py)
+    while it opens, which on a new home creates its SQLite tables.
+    """
+
+    _cache: dict[tuple, Session] = {}
+
+    def __init__(self, settings: Settings):
+        ensure_home()
+        quiet_dagster_warnings()
+        import dagster as dg
+
+        from .. import definitions
+
+        self.dg = dg
+        self.settings = settings
+        # the module's Definitions (the UI's) serve the default settings while the home and shots root they were
+        # built for are still this process's (a test, the editor, may change them): built once per process
+        self.defs = (definitions.defs if settings == Settings() and definitions.built_for() == definitions.current_place()
+                     else definitions.build_definitions(settings))
+        self.resources = dict(self.defs.resources)
+        self.job = self.defs.resolve_implicit_global_asset_job_def()
+        self._instance = None
+
+    @property
+    def instance(self):
+        if self._instance is None:  # not kept when opening fails: the next call tries again
+            self._instance = open_instance()
+        return self._instance
+
+    @classmethod
+    def get(cls, settings: Settings) -> Session:
+        ensure_home()
+        # the instance id changes when the Dagster home was deleted: a cached instance would write into
+        # SQLite files that no longer exist, so a long-lived process (the editor) opens the new home
+        key = (settings, home(), os.environ.get("DAGSTER_HOME"), os.environ.get("INBETWEEN_SHOTS"), instance_id())
+        if key not in cls._cache:
+            cls._cache[key] = cls(settings)
+        return cls._cache[key]
+
+    def ensure_partition(self, partition: str) -> None:
+        if not self.instance.has_dynamic_partition("shots", partition):
+            self.instance.add_dynamic_partitions("shots", [partition])
+
+    def observe(self, partition: str, sources: dict[str, str]) -> None:
+        """Record the sources' data versions as observations (no run is launched)."""
+        from ..stage import asset_key
+
+        for name in SOURCES:
+            self.instance.report_runless_asset_event(self.dg.AssetObservation(
+                asset_key=asset_key(name), partition=partition, tags={"dagster/data_version": sources[name]}))
+
+    def materialize(self, shot: str, partition: str, names: list[str], log_path: Path, verbose: bool = False):
+        """Run the named stages of one partition in one in-process execution; StageFailed if a stage raises."""
+        from ..stage import asset_key
+
+        run_config = {"loggers": {"file": {"config": {"path": str(log_path)}},
+                                  "console": {"config": {"log_level": "DEBUG" if verbose else "CRITICAL"}}}}
+        result = self.job.execute_in_process(
+            instance=self.instance, partition_key=partition, asset_selection=[asset_key(n) for n in names],
+            run_config=run_config, raise_on_error=False, tags={"inbetween/shot": partition})
+        if not result.success:
+            raise_failure(result.all_events, shot, log_path)
+        return result
+
+    def materialize_farm(self, shot: str, partition: str, names: list[str], log_path: Path, verbose: bool = False):
+        """Run the named stages of one partition as one run of the farm job: each step on a Celery worker
+        (assets/farm/), this process orchestrating; StageFailed if a stage raises."""
+        from ..definitions import farm_job, resources_config
+        from ..stage import asset_key
+
+        run_config = {"loggers": {"file": {"config": {"path": str(log_path)}},
+                                  "console": {"config": {"log_level": "DEBUG" if verbose else "CRITICAL"}}},
+                      "resources": resources_config(self.settings)}
+        result = self.dg.execute_job(
+            self.dg.reconstructable(farm_job), self.instance, run_config=run_config,
+            tags={"inbetween/shot": partition, "dagster/partition": partition},
+            asset_selection=[asset_key(n) for n in names])
+        if not result.success:
+            raise_failure(result.all_events, shot, log_path)
+        return result
+
+
+def open_instance():
+    """The Dagster instance of DAGSTER_HOME; HomeDamaged (one line, with the fix) when it cannot be opened."""
+    import dagster as dg
+
+    from ..home import dagster_home
+
+    lock = home() / "locks" / "dagster-instance.lock"
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        # one process at a time: two processes opening a new SQLite home both create its tables, and the
+        # second fails with "table jobs already exists" (batch workers starting on a fresh home)
+        with open(lock, "w") as f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+            instance = dg.DagsterInstance.get()
+            instance.get_runs_count()  # opens the run storage: a damaged SQLite file fails here, not mid-run
+        return instance
+    except Exception as e:
+        if _database_locked(e):
+            raise
+        raise HomeDamaged(dagster_home(), e) from e
