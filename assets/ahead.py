@@ -36,11 +36,11 @@ from ops.settings import RecordingSettings, Settings
 from ops.types import Shot
 from resources.store import Store
 
-from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
+from .graph import shot_graph
 from .stage import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
 
 WORKERS = 2  # the machine's cores: a third thread would only contend
-TABLE_STAGES = ("quality_metrics", "evaluation/metrics")  # they build pandas tables
+TABLE_KINDS = ("quality_metrics", "metrics")  # stages of these kinds build pandas tables
 
 
 class _Log:
@@ -80,7 +80,8 @@ class WorkAhead:
                  store: Store, resources: dict[str, Any], workers: int = WORKERS):
         self.partition, self.names, self.shot, self.sources = partition, set(names), shot, sources
         self.settings, self.store, self.resources = settings, store, resources
-        self.order = [n for n in ALL_STAGES if n in self.names]  # parents first
+        self.graph = shot_graph(shot.n_keys)
+        self.order = [n for n in self.graph.all_stages if n in self.names]  # parents first
         self.state = {n: "pending" for n in self.order}  # pending | running | done | failed
         self.outcomes: dict[str, Outcome] = {}
         self.errors: dict[str, BaseException] = {}
@@ -120,7 +121,7 @@ class WorkAhead:
     # ---- the workers' side
 
     def _ready(self, name: str) -> bool:
-        return all(self.state.get(p, "done") == "done" for p in ALL_PARENTS[name])
+        return all(self.state.get(p, "done") == "done" for p in self.graph.parents[name])
 
     def _next(self) -> str | None:
         """A pending stage whose parents are done (the one a step waits for first), or None."""
@@ -149,7 +150,7 @@ class WorkAhead:
         context = self.contexts[name] = _Context(self.resources)
         env = self._env(name, context)
         try:
-            parents = {p: self.sources.get(p) if p in SOURCES else self._version(p) for p in ALL_PARENTS[name]}
+            parents = {p: self.sources[p] if p in self.sources else self._version(p) for p in self.graph.parents[name]}
             outcome = run_stage(name, env, parents, self.settings)
         except BaseException as e:  # the step re-raises it, with this traceback
             with self.cond:
@@ -180,7 +181,7 @@ class WorkAhead:
         return outcome.version if outcome is not None else self.store.hash(name, self.partition)
 
     def _env(self, name: str, context: Any) -> StageEnv:
-        env = StageEnv(context, self.partition, self.store, None, RecordingSettings(self.settings), self.memory)
+        env = StageEnv(context, self.partition, self.store, None, RecordingSettings(self.settings), self.memory, name)
         env.__dict__["shot"] = self.shot  # the plan's shot: loaded once per run
         return env
 
@@ -203,7 +204,7 @@ def _warm_ups(stages: list[str], resources: dict[str, Any]) -> list[Callable[[],
     jobs: list[Callable[[], Any]] = []
     if "rife" in resources and any("rife" in getattr(STAGE_SPECS.get(n), "resources", ()) for n in stages):
         jobs.append(resources["rife"].load)  # cached per process: the stage gets the loaded network
-    if any(n in TABLE_STAGES for n in stages):
+    if any(n.rsplit("/", 1)[-1] in TABLE_KINDS for n in stages):
         jobs.append(lambda: importlib.import_module("pandas"))
     return jobs
 

@@ -1,4 +1,5 @@
-"""Both lanes meet: RIFE image matrix -> quality metrics -> optimal path -> output frames (§5.2)."""
+"""Per segment both sides meet: RIFE image matrix -> quality metrics -> optimal path -> frames (§5.2); the shot's
+output joins the segments (a one-drawing shot's is its deformed drawing)."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
@@ -18,24 +19,38 @@ from ops.blending.quality import (
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
+from .graph import side
 from .stage import StageEnv, StageResult, stage_asset
 
 if TYPE_CHECKING:  # pandas is imported by the stages that build tables, not with the Definitions
     import pandas as pd
 
 
-def _rife_matrix(env: StageEnv) -> StageResult:
+def _sides(env: StageEnv, s: int) -> tuple[DeformedSequence, DeformedSequence]:
+    """Segment s's two deformed sequences: its first key's side, then its last key's."""
+    a, b = env.shot.segment_keys(s)
+    return env.read(side(s, a, "deformed_frames")), env.read(side(s, b, "deformed_frames"))
+
+
+def _rife_matrix(s: int):
+    def compute(env: StageEnv) -> StageResult:
+        return _matrix(env, s)
+
+    compute.__doc__ = _matrix.__doc__
+    return compute
+
+
+def _matrix(env: StageEnv, s: int) -> StageResult:
     """I(alpha, t): RIFE blends of the two deformed sequences on a dyadic alpha grid, and the flow at alpha 1/2.
 
     Only the cells the output's path (Settings.blend) takes are blended, and the cells their bisection needs:
     the path is known from q and Q once the alpha-1/2 flows are (ops/blending/path_cells.py). The evaluation
     blends the other path's cells when it compares them.
     """
-    seq0: DeformedSequence = env.read("key0/deformed_frames")
-    seq1: DeformedSequence = env.read("key1/deformed_frames")
-    s = env.settings
-    _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(s.alpha_depth))
-    matrix = path_matrix(seq0, seq1, q, weight, env.resource("rife").load(), s.alpha_depth, s.epsilon, s.blend,
+    seq0, seq1 = _sides(env, s)
+    st = env.settings
+    _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(st.alpha_depth))
+    matrix = path_matrix(seq0, seq1, q, weight, env.resource("rife").load(), st.alpha_depth, st.epsilon, st.blend,
                          env.resource("rife").batch)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
     meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
@@ -43,12 +58,18 @@ def _rife_matrix(env: StageEnv) -> StageResult:
     return StageResult(matrix, meta, preview.frame_strip(mid))
 
 
-def _quality(env: StageEnv) -> StageResult:
-    """Texture quality q(t, alpha) (visible unreliable share: inpainted or distorted) and interpolation quality Q(t)
-    (flow divergence)."""
-    matrix: ImageMatrix = env.read("rife_matrix")
-    seq0: DeformedSequence = env.read("key0/deformed_frames")
-    seq1: DeformedSequence = env.read("key1/deformed_frames")
+def _quality(s: int):
+    def compute(env: StageEnv) -> StageResult:
+        """Texture quality q(t, alpha) (visible unreliable share: inpainted or distorted) and interpolation quality
+        Q(t) (flow divergence)."""
+        return _quality_of(env, s)
+
+    return compute
+
+
+def _quality_of(env: StageEnv, s: int) -> StageResult:
+    matrix: ImageMatrix = env.read(f"seg{s}/rife_matrix")
+    seq0, seq1 = _sides(env, s)
     share0, share1, q, weight = quality_inputs(seq0, seq1, matrix.alphas)
     Q = interpolation_quality(matrix.flows, weight)
     table = quality_table(matrix.times, matrix.alphas, q, Q)
@@ -67,9 +88,16 @@ def _table_arrays(table: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return times, alphas, wide.to_numpy(), Q
 
 
-def _paths(env: StageEnv) -> StageResult:
-    """Shortest path through the matrix (Dijkstra) and the diagonal path alpha = t, with their costs."""
-    times, alphas, q, Q = _table_arrays(env.read("quality_metrics"))
+def _paths(s: int):
+    def compute(env: StageEnv) -> StageResult:
+        """Shortest path through the matrix (Dijkstra) and the diagonal path alpha = t, with their costs."""
+        return _paths_of(env, s)
+
+    return compute
+
+
+def _paths_of(env: StageEnv, s: int) -> StageResult:
+    times, alphas, q, Q = _table_arrays(env.read(f"seg{s}/quality_metrics"))
     best = optimal_path(q, Q, alphas, epsilon=env.settings.epsilon)
     diag = diagonal_path(q, Q, alphas, times)
     paths = BlendPaths(times, alphas, best, diag)
@@ -86,10 +114,17 @@ def _check_path(paths: BlendPaths, env: StageEnv) -> tuple[bool, str]:
     return ok, f"alpha along the path: {[float(paths.alphas[i]) for i in idx]}"
 
 
-def _frames(env: StageEnv) -> StageResult:
-    """The output animation: at every time, the matrix cell the chosen path picks."""
-    matrix: ImageMatrix = env.read("rife_matrix")
-    paths: BlendPaths = env.read("optimal_path")
+def _frames(s: int):
+    def compute(env: StageEnv) -> StageResult:
+        """The segment's frames: at every time, the matrix cell the chosen path picks."""
+        return _frames_of(env, s)
+
+    return compute
+
+
+def _frames_of(env: StageEnv, s: int) -> StageResult:
+    matrix: ImageMatrix = env.read(f"seg{s}/rife_matrix")
+    paths: BlendPaths = env.read(f"seg{s}/optimal_path")
     blend = env.settings.blend
     chosen = paths.optimal if blend == "optimal" else paths.diagonal
     T = len(matrix.times)
@@ -102,10 +137,34 @@ def _frames(env: StageEnv) -> StageResult:
     return StageResult(out, meta, sheet)
 
 
-def blending_assets() -> list:
+def _shot_frames(env: StageEnv) -> StageResult:
+    """The shot's animation, one frame per output frame: the segments' frames joined at their shared keys, or a
+    one-drawing shot's deformed drawing (no blending)."""
+    shot = env.shot
+    if shot.n_keys == 1:
+        seq: DeformedSequence = env.read(side(0, 0, "deformed_frames"))
+        frames = seq.images
+        alphas = np.zeros(len(frames))
+        blend = "none"
+    else:
+        parts: list[OutputFrames] = [env.read(f"seg{s}/frames") for s in range(shot.n_segments)]
+        frames = np.concatenate([p.frames[(1 if i else 0):] for i, p in enumerate(parts)])
+        alphas = np.concatenate([p.alphas[(1 if i else 0):] for i, p in enumerate(parts)])
+        blend = parts[0].blend
+    out = OutputFrames(shot.times.copy(), alphas, frames.astype(np.float32, copy=False), blend)
+    meta = {"frames": len(frames), "keys": shot.n_keys, "key_frames": list(shot.key_frames)}
+    return StageResult(out, meta, preview.frame_strip(frames))
+
+
+def segment_assets(s: int) -> list:
+    """Segment s's blending of its two sides."""
     return [
-        stage_asset("rife_matrix", _rife_matrix, resources=("rife",)),
-        stage_asset("quality_metrics", _quality),
-        stage_asset("optimal_path", _paths, checks={"path_endpoints_and_monotone_t": _check_path}),
-        stage_asset("inbetween_frames", _frames),
+        stage_asset(f"seg{s}/rife_matrix", _rife_matrix(s), resources=("rife",)),
+        stage_asset(f"seg{s}/quality_metrics", _quality(s)),
+        stage_asset(f"seg{s}/optimal_path", _paths(s), checks={"path_endpoints_and_monotone_t": _check_path}),
+        stage_asset(f"seg{s}/frames", _frames(s)),
     ]
+
+
+def shot_assets() -> list:
+    return [stage_asset("inbetween_frames", _shot_frames, group="shot")]

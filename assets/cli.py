@@ -95,12 +95,28 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def shot_stages(partition: str) -> tuple[str, ...]:
+    """The stages of a registered shot's graph, from its shot.json's keyframe count (no validation: a shot
+    that fails to load shows a two-key line until it fails)."""
+    from ops.shotio.load import MAX_KEYS
+    from resources.registry import lookup
+
+    from .graph import shot_graph
+    from .home import home
+
+    try:
+        shot_dir = lookup(home() / "shots.json", partition)
+        n = len(json.loads((shot_dir / "shot.json").read_text())["keyframes"])
+    except (OSError, ValueError, TypeError, KeyError):
+        n = 2
+    return shot_graph(min(max(n, 1), MAX_KEYS)).stages
+
+
 def _board(args):
     from .console import Board
-    from .graph import STAGES
 
     # with --verbose Dagster's log scrolls on stderr: lines redrawn in place would fight it
-    return Board(STAGES, live=False if getattr(args, "verbose", False) else None)
+    return Board(shot_stages, live=False if getattr(args, "verbose", False) else None)
 
 
 def _run(args) -> int:

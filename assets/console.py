@@ -18,7 +18,7 @@ import shutil
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -113,7 +113,9 @@ def own_stderr() -> TextIO:
 class Board:
     """The progress lines of one command: redrawn in place on a terminal, printed once per shot elsewhere."""
 
-    def __init__(self, stages: tuple[str, ...], stream: TextIO | None = None, live: bool | None = None):
+    def __init__(self, stages: tuple[str, ...] | Callable[[str], tuple[str, ...]], stream: TextIO | None = None,
+                 live: bool | None = None):
+        """stages: every shot's stages, or a function partition -> that shot's (shots of any number of keys)."""
         self.stages = stages
         self.stream = stream or own_stderr()
         self.live = self.stream.isatty() if live is None else live
@@ -125,7 +127,8 @@ class Board:
     def line(self, partition: str, name: str | None = None) -> ShotLine:
         """The line of a partition (created on first use, named after the shot)."""
         if partition not in self.lines:
-            self.lines[partition] = ShotLine(name or partition, self.stages)
+            stages = self.stages(partition) if callable(self.stages) else self.stages
+            self.lines[partition] = ShotLine(name or partition, stages)
         return self.lines[partition]
 
     def feed(self, event: dict) -> None:

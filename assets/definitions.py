@@ -19,16 +19,17 @@ from pathlib import Path
 import dagster as dg
 
 from ops.settings import Settings
+from ops.shotio.load import MAX_KEYS
 from ops.shotio.versions import source_versions
 from resources.settings import PipelineSettings
 from resources.shots import ShotsResource
 from resources.storage import StageStore
 
-from .blending import blending_assets
+from .blending import segment_assets, shot_assets
 from .codeversion import project_fingerprint
 from .evaluation import evaluation_assets
-from .geometry import lane_assets
-from .graph import EVAL_STAGES, SOURCES
+from .geometry import lane_assets, side_assets
+from .graph import EVAL_STAGES, segment_keys, union_sources
 from .home import home, shots_root
 from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets
 
@@ -65,15 +66,18 @@ def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:
 
 
 SOURCE_ASSETS = source_assets(_versions)
-STAGE_ASSETS = [*lane_assets(0), *lane_assets(1), *blending_assets(), *evaluation_assets()]
+# every stage any shot can have: a lane per key, each segment's two sides and its blending (assets/graph.py)
+SHOT_ASSETS = [*(a for k in range(MAX_KEYS) for a in lane_assets(k)),
+               *(a for s in range(MAX_KEYS - 1) for k in segment_keys(s, MAX_KEYS) for a in side_assets(s, k)),
+               *(a for s in range(MAX_KEYS - 1) for a in segment_assets(s)), *shot_assets()]
+STAGE_ASSETS = [*SHOT_ASSETS, *evaluation_assets()]
 ALL_ASSETS = [*SOURCE_ASSETS, *STAGE_ASSETS]
+SHOT_SELECTION = dg.AssetSelection.assets(*(k for a in SHOT_ASSETS for k in a.keys))
 
-observe_job = dg.define_asset_job("observe_sources", selection=[asset_key(s) for s in SOURCES],
-                                  partitions_def=PARTITIONS)
-shot_job = dg.define_asset_job("inbetween_shot", selection=dg.AssetSelection.groups("key0", "key1", "blending"),
-                               partitions_def=PARTITIONS)
-evaluation_job = dg.define_asset_job("evaluate_shot", selection=[asset_key(n) for n in EVAL_STAGES],
-                                     partitions_def=PARTITIONS)
+# the jobs' partitions come from their assets (the shots' dynamic partitions)
+observe_job = dg.define_asset_job("observe_sources", selection=[asset_key(s) for s in union_sources()])
+shot_job = dg.define_asset_job("inbetween_shot", selection=SHOT_SELECTION)
+evaluation_job = dg.define_asset_job("evaluate_shot", selection=[asset_key(n) for n in EVAL_STAGES])
 FARM_JOB = "inbetween_shot_farm"
 
 
@@ -82,8 +86,7 @@ def farm_jobs() -> list:
     if find_spec("dagster_celery") is None:  # no dagster-celery: every other path works without it
         return []
     from .farm.executor import farm_executor  # imports dagster-celery only when a farm run starts
-    return [dg.define_asset_job(FARM_JOB, selection=dg.AssetSelection.groups("key0", "key1", "blending"),
-                                partitions_def=PARTITIONS, executor_def=farm_executor)]
+    return [dg.define_asset_job(FARM_JOB, selection=SHOT_SELECTION, executor_def=farm_executor)]
 
 
 @dg.sensor(job=observe_job, minimum_interval_seconds=30, default_status=dg.DefaultSensorStatus.RUNNING)

@@ -42,7 +42,7 @@ def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None
         partition = evaluate_stages(d, settings)
         table = st.read("evaluation/metrics", partition)
         tables.append(table.assign(shot=d.name))
-        if json.loads((d / "shot.json").read_text()).get("t_junctions", [[], []]) != [[], []]:
+        if any(json.loads((d / "shot.json").read_text()).get("t_junctions") or []):
             figure_rows.append(_figure_row(st, partition, d))
     if not tables:
         print(f"error: {root}: no shot with a ground_truth folder", file=sys.stderr)
@@ -50,9 +50,16 @@ def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None
     per_frame = pd.concat(tables, ignore_index=True)
     per_frame.to_csv(out / "results.csv", index=False)
     per_shot = summarize(per_frame)
-    overall = per_shot.groupby("method", sort=False)[["psnr", "ssim", "chamfer"]].mean().reindex(list(METHODS)).reset_index()
+    present = [m for m in METHODS if m in set(per_shot["method"])]
+    overall = per_shot.groupby("method", sort=False)[["psnr", "ssim", "chamfer"]].mean().reindex(present).reset_index()
     per_shot.to_csv(out / "summary.csv", index=False)
+    lanes = per_frame[per_frame["method"] == "lane_agreement"]
     md = "## Mean over interior frames, all shots\n\n" + _markdown(overall) + "\n## Per shot\n\n" + _markdown(per_shot)
+    if len(lanes):
+        agreement = lanes.groupby("shot", sort=False)[["psnr", "chamfer"]].agg(["min", "mean"])
+        agreement.columns = [f"{a}_{b}" for a, b in agreement.columns]
+        md += ("\n## Lane agreement: each lane at the other key's pose against that key's drawing\n\n"
+               + _markdown(agreement.reset_index()))
     (out / "summary.md").write_text(md)
     if figure_rows:
         width = max(r.shape[1] for r in figure_rows)
@@ -68,11 +75,14 @@ def _figure_row(st, partition: str, shot_dir: Path) -> np.ndarray:
     from ops.shotio.load import load_shot
 
     shot = load_shot(shot_dir)
-    mid = len(shot.times) // 2
-    gt = ground_truth_files(shot.ground_truth)[mid]
+    files = ground_truth_files(shot.ground_truth)
+    frame_of = [int(f.stem) for f in files]
+    pick = int(np.argmin(np.abs(np.array(frame_of) - (len(shot.times) - 1) / 2)))  # the reference nearest the middle
+    mid = frame_of[pick]
     ours = st.read("inbetween_frames", partition).frames[mid]
-    direct = st.read("evaluation/rife_direct", partition).frames[mid]
+    baseline = st.read("evaluation/rife_direct", partition)
     keys = [to_rgba(read_image(p)) for p in shot.keyframes]
-    row = preview.side_by_side([keys[0], keys[1], to_rgba(read_image(gt)), ours, direct],
-                               [f"{shot_dir.name} key0", "key1", f"truth t={shot.times[mid]:.2f}", "ours", "RIFE direct"])
+    labels = [f"{shot_dir.name} key0", *(f"key{k}" for k in range(1, len(keys)))]
+    row = preview.side_by_side([*keys, to_rgba(read_image(files[pick])), ours, baseline.frames[mid]],
+                               [*labels, f"truth frame {mid}", "ours", baseline.blend.replace("_", " ")])
     return row

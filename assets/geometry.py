@@ -1,4 +1,5 @@
-"""Per-keyframe lane: masks -> refined masks -> template -> textured template -> deformed frames."""
+"""Per keyframe, the lane both segments beside it share: masks -> refined masks -> template; per segment, each
+key's side of it: textured template (from its drawing and the segment's other key's) -> deformed frames."""
 from __future__ import annotations
 
 import numpy as np
@@ -12,6 +13,7 @@ from ops.segmentation.refine import refine_masks
 from ops.shotio.image_io import read_image
 from ops.types import DeformedSequence, Masks, RefinedMasks, TexturedTemplate
 
+from .graph import side
 from .stage import StageEnv, StageResult, stage_asset
 
 
@@ -51,12 +53,22 @@ def _check_occlusion_inside(masks, env) -> tuple[bool, str]:
     return not any(outside) and not empty, f"pixels outside the foreground per region: {outside}; empty regions: {empty}"
 
 
+def _targets(shot, k: int) -> np.ndarray | list[np.ndarray]:
+    """The poses key k's lane must deform well to: the neighbouring keys' (one, as a (J, 3) array, for a two-key
+    shot), or for a one-drawing shot the pose of its motion farthest from the drawing's."""
+    if shot.n_keys == 1:
+        moved = np.abs(shot.poses[..., :2] - shot.key_pose(0)[None, :, :2]).sum(axis=(1, 2))
+        return shot.poses[int(np.argmax(moved))]
+    around = [shot.key_pose(j) for j in shot.neighbours(k)]
+    return around[0] if len(around) == 1 else around
+
+
 def _refined(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Occlusion masks deformed so their boundaries pass through the T-junctions (§4.1)."""
         masks: Masks = env.read(f"key{k}/masks")
         shot = env.shot
-        refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton, shot.key_pose(1 - k))
+        refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton, _targets(shot, k))
         for w in refined.warnings[len(masks.warnings):]:  # the masks stage already logged its own
             env.context.log.warning(w)
         pts = [b[j] for b, j in zip(refined.boundaries, refined.junctions)]
@@ -75,7 +87,7 @@ def _template(k: int):
         """2.5D template: mesh with pockets, handles and the cut topology of least energy (§4.2-4.4)."""
         shot, s = env.shot, env.settings
         refined: RefinedMasks = env.read(f"key{k}/refined_masks")
-        template = optimize_topology(refined, shot.key_pose(k), shot.key_pose(1 - k), shot.skeleton,
+        template = optimize_topology(refined, shot.key_pose(k), _targets(shot, k), shot.skeleton,
                                      mode=s.template_mode, seed=s.seed, solver=Solver(s.mu, s.grad_tol, s.max_iter))
         for w in template.warnings:
             env.context.log.warning(w)
@@ -93,13 +105,17 @@ def _check_template_folds(template, env) -> tuple[bool, str]:
     return n == 0, f"{n} folded triangles at rest"
 
 
-def _textured(k: int):
+def _textured(s: int, k: int):
     def compute(env: StageEnv) -> StageResult:
-        """Depth weights (bounded biharmonic) and texture of every layer; unseen parts inpainted (§5.1)."""
-        shot, s = env.shot, env.settings
-        textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
-                                        env.read(f"key{1 - k}/refined_masks"), shot.key_pose(k), shot.key_pose(1 - k),
-                                        env.resource("inpainter").get(), s.mu, s.grad_tol, s.max_iter)
+        """Depth weights (bounded biharmonic) and texture of every layer, the hidden ones from the segment's other
+        keyframe where it shows them; unseen parts inpainted (§5.1)."""
+        shot, st = env.shot, env.settings
+        others = [o for o in shot.segment_keys(s) if o != k]
+        other = env.read(f"key{others[0]}/refined_masks") if others else None
+        other_pose = shot.key_pose(others[0]) if others else None
+        textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"), other,
+                                        shot.key_pose(k), other_pose, env.resource("inpainter").get(), st.mu,
+                                        st.grad_tol, st.max_iter)
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),
@@ -110,12 +126,14 @@ def _textured(k: int):
     return compute
 
 
-def _deformed(k: int):
+def _deformed(s: int, k: int):
     def compute(env: StageEnv) -> StageResult:
-        """The textured template deformed into every pose of the motion and rendered (§4.3, §5.1)."""
-        shot, s = env.shot, env.settings
-        textured: TexturedTemplate = env.read(f"key{k}/textured_template")
-        seq = deform_lane(textured, shot.times, shot.poses, k == 1, shot.size, s.mu, s.supersample)
+        """The textured template deformed into every pose of the segment and rendered (§4.3, §5.1)."""
+        shot, st = env.shot, env.settings
+        textured: TexturedTemplate = env.read(side(s, k, "textured_template"))
+        backward = k != shot.segment_keys(s)[0]  # the segment's last key deforms from its own end
+        seq = deform_lane(textured, shot.segment_times(s), shot.segment_poses(s), backward, shot.size, st.mu,
+                          st.supersample)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
 
@@ -132,17 +150,24 @@ def _deformed(k: int):
 
 
 def _check_no_folds(seq: DeformedSequence, env: StageEnv) -> tuple[bool, str]:
-    faces = env.read(f"{env.context.asset_key.path[0]}/textured_template").template.faces
+    faces = env.read(env.stage.rsplit("/", 1)[0] + "/textured_template").template.faces
     folds = [count_flipped(x, faces) for x in seq.vertices]
     return sum(folds) == 0, f"folded triangles per frame: {folds}"
 
 
 def lane_assets(k: int) -> list:
+    """Key k's lane, shared by the segments beside it."""
     lane = f"key{k}"
     return [
         stage_asset(f"{lane}/masks", _masks(k), checks={"masks_nonempty_in_frame": _check_masks, "occlusion_inside_foreground": _check_occlusion_inside}),
         stage_asset(f"{lane}/refined_masks", _refined(k), checks={"occlusion_inside_foreground": _check_occlusion_inside}),
         stage_asset(f"{lane}/template", _template(k), checks={"no_folded_triangles_at_rest": _check_template_folds}),
-        stage_asset(f"{lane}/textured_template", _textured(k), resources=("inpainter",)),
-        stage_asset(f"{lane}/deformed_frames", _deformed(k), checks={"no_folded_triangles": _check_no_folds}),
+    ]
+
+
+def side_assets(s: int, k: int) -> list:
+    """Key k's side of segment s: its texture for the segment and its deformation through the segment's poses."""
+    return [
+        stage_asset(side(s, k, "textured_template"), _textured(s, k), resources=("inpainter",)),
+        stage_asset(side(s, k, "deformed_frames"), _deformed(s, k), checks={"no_folded_triangles": _check_no_folds}),
     ]

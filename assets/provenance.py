@@ -20,7 +20,7 @@ from ops.settings import Settings
 from resources.store import Store
 
 from .codeversion import changed_files
-from .graph import ALL_PARENTS, ALL_STAGES, SOURCES
+from .graph import ShotGraph
 
 
 @dataclass
@@ -30,9 +30,10 @@ class StageStatus:
     causes: list[str] = field(default_factory=list)
 
 
-def parent_versions(name: str, partition: str, store: Store, sources: dict[str, str]) -> dict[str, str | None]:
+def parent_versions(parents: tuple[str, ...], partition: str, store: Store, sources: dict[str, str]
+                    ) -> dict[str, str | None]:
     """Current data version of each parent: a source's content hash, a stage's stored output hash (None if missing)."""
-    return {p: sources.get(p) if p in SOURCES else store.hash(p, partition) for p in ALL_PARENTS[name]}
+    return {p: sources[p] if p in sources else store.hash(p, partition) for p in parents}
 
 
 def provenance(parents: dict[str, str | None], settings_read: dict, code: dict[str, str]) -> dict:
@@ -57,18 +58,18 @@ def differences(recorded: dict | None, parents: dict, settings: Settings, code: 
 
 
 def resolve(partition: str, store: Store, sources: dict[str, str], settings: Settings,
-            code: dict[str, dict[str, str]], stages: tuple[str, ...]) -> dict[str, StageStatus]:
-    """Status of each of `stages` (and of the stages upstream of them), in graph order."""
+            code: dict[str, dict[str, str]], stages: tuple[str, ...], graph: ShotGraph) -> dict[str, StageStatus]:
+    """Status of each of `stages` of the shot's graph (and of the stages upstream of them), in graph order."""
     out: dict[str, StageStatus] = {}
-    for name in ALL_STAGES:  # parents before children
+    for name in graph.all_stages:  # parents before children
         digest, recorded = store.provenance(name, partition)
         if digest is None:
             damaged = store.path(name, partition).exists()
             out[name] = StageStatus(name, "missing", ["stored output damaged" if damaged else "never materialized"])
             continue
-        upstream = [p for p in ALL_PARENTS[name] if p in out and out[p].state != "fresh"]
+        upstream = [p for p in graph.parents[name] if p in out and out[p].state != "fresh"]
         causes = [f"upstream {p} {out[p].state}" for p in upstream]
-        parents = parent_versions(name, partition, store, sources)
+        parents = parent_versions(graph.parents[name], partition, store, sources)
         causes += [c for c in differences(recorded, parents, settings, code[name])
                    if c.removesuffix(" changed") not in upstream]
         out[name] = StageStatus(name, "stale" if causes else "fresh", causes)

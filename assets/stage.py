@@ -34,7 +34,7 @@ from resources.store import Store, content_hash
 
 from . import progress
 from .codeversion import code_record, code_version
-from .graph import ALL_PARENTS, SOURCES
+from .graph import shot_graph, union_graph, union_sources
 from .provenance import differences, parent_versions, provenance
 
 PARTITIONS = dg.DynamicPartitionsDefinition(name="shots")
@@ -64,6 +64,7 @@ class StageEnv:
     shots: ShotsResource
     settings: RecordingSettings
     memory: dict[str, Any] = field(default_factory=dict)  # outputs this run already computed, by stage
+    stage: str = ""  # the stage this environment computes
 
     @cached_property
     def shot(self) -> Shot:
@@ -134,7 +135,18 @@ def stage_spec(name: str, compute: Callable, resources: tuple[str, ...]) -> Stag
     """Code record of a stage: its compute function, the StageEnv it reads through, its resources' modules."""
     functions = (compute, *[v for v in vars(StageEnv).values() if callable(v)], StageEnv.shot.func)
     modules = tuple(RESOURCE_TYPES[r].__module__ for r in resources)
-    return StageSpec(name, code_record(functions, modules), functions, modules, tuple(resources))
+    return StageSpec(name, _code_record(compute.__code__, functions, modules), functions, modules, tuple(resources))
+
+
+_RECORDS: dict[tuple, dict[str, str]] = {}
+
+
+def _code_record(code, functions: tuple[Callable, ...], modules: tuple[str, ...]) -> dict[str, str]:
+    """code_record, once per compute function's code: every key's lane (a closure over k) runs the same code."""
+    key = (code, modules)
+    if key not in _RECORDS:
+        _RECORDS[key] = code_record(functions, modules)
+    return _RECORDS[key]
 
 
 @dataclass
@@ -190,14 +202,14 @@ def working_ahead(partition: str, name: str) -> Any:
 
 def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks: dict[str, Check] | None = None,
                 resources: tuple[str, ...] = (), group: str | None = None, description: str | None = None):
-    """A partitioned asset `name` whose parents come from assets.graph.ALL_PARENTS."""
+    """A partitioned asset `name` whose lineage is its parents in any shot (assets.graph.union_graph)."""
     checks = checks or {}
     STAGE_SPECS[name] = spec = stage_spec(name, compute, resources)
     key = asset_key(name)
     check_specs = [dg.AssetCheckSpec(c, asset=key) for c in checks]
-    group = group or (name.split("/")[0] if "/" in name else "blending")
+    group = group or name.split("/")[0]
 
-    @dg.asset(key=key, deps=[asset_key(p) for p in ALL_PARENTS[name]], partitions_def=PARTITIONS,
+    @dg.asset(key=key, deps=[asset_key(p) for p in union_graph()[name]], partitions_def=PARTITIONS,
               io_manager_key="io_manager", required_resource_keys={"io_manager", "shots", "settings", *resources},
               check_specs=check_specs, group_name=group.replace("/", "_"), description=description or compute.__doc__,
               code_version=code_version(spec.code))
@@ -209,8 +221,9 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks
             outcome, env = ahead.outcome(name, context)
         else:
             env = StageEnv(context, partition, context.resources.io_manager.files, context.resources.shots,
-                           RecordingSettings(settings))
-            outcome = run_stage(name, env, parent_versions(name, partition, env.store, source_versions(env.shot)),
+                           RecordingSettings(settings), stage=name)
+            parents = shot_graph(env.shot.n_keys).parents[name]
+            outcome = run_stage(name, env, parent_versions(parents, partition, env.store, source_versions(env.shot)),
                                 settings)
         result, cached, seconds = outcome.result, outcome.cached, outcome.seconds
         warnings = list(result.metadata.get("warnings", []))
@@ -237,12 +250,14 @@ def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks
 def source_assets(versions_fn: Callable[[ShotsResource, str], dict[str, str]]) -> list:
     """Observable sources whose data versions are content hashes of exactly what they cover."""
     out = []
-    for name in SOURCES:
+    for name in union_sources():
         def observe(context, shots: ShotsResource, _name=name):
             keys = [context.partition_key] if context.has_partition_key else context.instance.get_dynamic_partitions("shots")
-            return dg.DataVersionsByPartition({k: dg.DataVersion(versions_fn(shots, k)[_name]) for k in keys})
+            # a shot of fewer keys has no such source: a fixed version, never a change
+            return dg.DataVersionsByPartition({k: dg.DataVersion(versions_fn(shots, k).get(_name, "absent"))
+                                               for k in keys})
 
-        group = name.split("/")[0] if "/" in name else ("evaluation" if name == "ground_truth" else "motion")
+        group = name.split("/")[0] if "/" in name else "evaluation"  # ground_truth
         out.append(dg.observable_source_asset(key=asset_key(name), partitions_def=PARTITIONS, group_name=group,
                                               description=_SOURCE_DOCS[name.split("/")[-1]])(observe))
     return out
@@ -252,6 +267,6 @@ _SOURCE_DOCS = {
     "drawing": "The keyframe image and its manual masks (content hash of their bytes).",
     "pose": "The skeleton and this keyframe's pose from shot.json.",
     "t_junctions": "This keyframe's T-junction clicks from shot.json.",
-    "motion": "The skeleton and every output pose and time (after interpolation).",
+    "motion": "The skeleton and the pose and local time of every frame of this segment (after interpolation).",
     "ground_truth": "The reference frames of the shot, if any (evaluation only).",
 }

@@ -128,8 +128,8 @@ def run_sample(src: Path, tmp: Path) -> dict:
 
 def critical_path(stages: dict[str, dict]) -> float:
     """Seconds of the longest chain of stages through the graph (each after all of its parents)."""
-    from assets.graph import PARENTS, STAGES
-
+    from assets.graph import shot_graph
+    STAGES, PARENTS = shot_graph(2).stages, shot_graph(2).parents
     end: dict[str, float] = {}
     for name in STAGES:
         end[name] = stages[name]["seconds"] + max((end[p] for p in PARENTS[name] if p in end), default=0.0)

@@ -76,7 +76,7 @@ def main() -> int:
             continue
         store = Store(home / "storage")
         masks = [store.read(f"key{k}/masks", folder.name) for k in (0, 1)]
-        plate = paper_plate(drawing, drawing, masks[0].coverage, masks[1].coverage, masks[0].paper, masks[1].paper)
+        plate = paper_plate([drawing, drawing], [m.coverage for m in masks], [m.paper for m in masks])
         frames = np.stack([read_image(p) for p in sorted((out / "frames").glob("*.png"))])
         composite = over(frames, plate)
         in_mask = min(psnr(f[mask], drawing[mask]) for f in composite)

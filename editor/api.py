@@ -16,7 +16,7 @@ from starlette.requests import Request
 from starlette.responses import JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
-from assets.graph import PARENTS, SOURCES, STAGES
+from assets.graph import shot_graph
 from assets.run import plan
 from ops.errors import ShotError
 from ops.preview import to_png_bytes
@@ -87,9 +87,10 @@ async def info(request: Request) -> Response:
             size = list(_size(ed))
         except ShotError:
             size = None
+        graph = shot_graph(2)  # the editor edits two-key shots (v2's timeline of keys comes with the editor's)
         return JSONResponse({"shot_dir": str(ed.shot_dir), "partition": ed.partition, "size": size,
-                             "out_dir": str(ed.reruns.out_dir), "stages": list(STAGES),
-                             "parents": {n: list(p) for n, p in PARENTS.items()}, "sources": list(SOURCES)})
+                             "out_dir": str(ed.reruns.out_dir), "stages": list(graph.stages),
+                             "parents": {n: list(p) for n, p in graph.parents.items()}, "sources": list(graph.sources)})
 
     return await _call(work)
 
@@ -323,7 +324,7 @@ async def repose(request: Request) -> Response:
             raise ShotError("request", "k", f"keyframe {k} does not exist", "use 0 or 1")
         reposer = ed.reposers.get(k)
         if reposer is None:
-            return _error(f"key{k}/textured_template has not been computed yet; run the shot first", 409)
+            return _error(f"seg0/key{k}/textured_template has not been computed yet; run the shot first", 409)
         pose = np.asarray(body["joints"], float)
         if pose.ndim != 2 or pose.shape[1] != 3 or not np.isfinite(pose).all():
             raise ShotError("request", "joints", "must be finite [x, y, z] per joint", "send one [x, y, z] per joint")
@@ -367,14 +368,14 @@ async def matrix_png(request: Request) -> Response:
 
 async def previews(request: Request) -> Response:
     ed = _ed(request)
-    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in STAGES],
+    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in shot_graph(2).stages],
                         headers=NO_STORE)
 
 
 async def preview_png(request: Request) -> Response:
     ed = _ed(request)
     stage = request.path_params["stage"].removesuffix(".png")
-    if stage not in STAGES:
+    if stage not in shot_graph(2).stages:
         return _error(f"no stage {stage!r}", 404)
     path: Path = ed.store.preview_path(stage, ed.partition)
     return _png(path.read_bytes() if path.is_file() else None, f"preview of {stage}")

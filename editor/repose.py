@@ -122,7 +122,7 @@ class Reposers:
 
     def get(self, k: int) -> Reposer | None:
         """Reposer of keyframe k, or None while its textured template has not been computed."""
-        name = f"key{k}/textured_template"
+        name = f"seg0/key{k}/textured_template"
         version = self.store.hash(name, self.partition)
         if version is None:
             return None
@@ -131,7 +131,7 @@ class Reposers:
             if cached and cached[0] == version:
                 return cached[1]
             textured = self.store.read(name, self.partition)
-            seq_name = f"key{k}/deformed_frames"
+            seq_name = f"seg0/key{k}/deformed_frames"
             seq = self.store.read(seq_name, self.partition) if self.store.hash(seq_name, self.partition) else None
             reposer = Reposer(textured, seq, self.mu, self.grad_tol)
             self._cache[k] = (version, reposer)

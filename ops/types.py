@@ -31,25 +31,73 @@ class Skeleton:
         return share
 
 
+EASES = ("linear", "in", "out", "in-out")  # a segment's timing (docs/shot-format.md, v2 `ease`)
+
+
 @dataclass
 class Shot:
-    """A validated shot directory (see SHOT_FORMAT.md)."""
+    """A validated shot directory (docs/shot-format.md): N >= 1 keyframes of one character and its motion.
+
+    Output frame i shows the pose poses[i] at the clock times[i]; keyframe k is output frame key_frames[k].
+    Segment s runs from keyframe s to keyframe s + 1 (N = 1: one segment, the whole motion, one lane).
+    """
 
     root: str  # absolute path of the shot directory
-    keyframes: tuple[str, str]  # absolute image paths
+    keyframes: tuple[str, ...]  # absolute image paths, one per keyframe (N >= 1)
     size: tuple[int, int]  # (H, W) pixels
     skeleton: Skeleton
-    times: np.ndarray  # (T,) float64 output times, first 0, last 1
-    poses: np.ndarray  # (T, J, 3) float64 joint x, y (pixels), z (depth, larger = farther)
-    t_junctions: tuple[np.ndarray, np.ndarray]  # per keyframe (k, 2) float64 pixels
-    foreground_masks: tuple[str | None, str | None]  # manual mask paths or None
-    occlusion_masks: tuple[tuple[str, ...], tuple[str, ...]]  # manual masks per keyframe
+    times: np.ndarray  # (F,) float64 clock of each output frame: v1 its t (0 .. 1), v2 its frame number (0 .. F-1)
+    poses: np.ndarray  # (F, J, 3) float64 joint x, y (pixels), z (depth, larger = farther) at each output frame
+    t_junctions: tuple[np.ndarray, ...]  # per keyframe (k, 2) float64 pixels
+    foreground_masks: tuple[str | None, ...]  # per keyframe: manual mask path or None
+    occlusion_masks: tuple[tuple[str, ...], ...]  # per keyframe: manual occlusion mask paths
     ground_truth: str | None = None  # folder of reference frames, or None
-    frames_given: int | None = None  # the optional `frames` field
+    key_frames: tuple[int, ...] = ()  # output frame of each keyframe, strictly increasing, the first 0
+    ease: tuple[str, ...] = ()  # per segment, one of EASES
+    version: int = 1  # the format: 1 (two keys, t in [0, 1]) or 2 (any number of keys, frames)
+
+    def __post_init__(self):
+        if not self.key_frames:  # v1: the keyframes are the first and the last output frame
+            self.key_frames = (0, len(self.times) - 1)
+        if not self.ease:
+            self.ease = ("linear",) * self.n_segments
+
+    @property
+    def n_keys(self) -> int:
+        return len(self.keyframes)
+
+    @property
+    def n_segments(self) -> int:
+        """Segments (k, k + 1) between consecutive keys; N = 1 has one: the drawing along the whole motion."""
+        return max(1, self.n_keys - 1)
 
     def key_pose(self, k: int) -> np.ndarray:
-        """(J, 3) pose at keyframe k (0 -> t = 0, 1 -> t = 1)."""
-        return self.poses[0 if k == 0 else -1]
+        """(J, 3) pose at keyframe k."""
+        return self.poses[self.key_frames[k]]
+
+    def neighbours(self, k: int) -> tuple[int, ...]:
+        """The keys next to key k: k - 1 and k + 1 where they exist."""
+        return tuple(j for j in (k - 1, k + 1) if 0 <= j < self.n_keys)
+
+    def segment_keys(self, s: int) -> tuple[int, ...]:
+        """The keys of segment s: (s, s + 1), or (0,) for a one-drawing shot."""
+        return (0,) if self.n_keys == 1 else (s, s + 1)
+
+    def segment_frames(self, s: int) -> np.ndarray:
+        """(T,) int64 output frames of segment s, both of its keyframes included."""
+        if self.n_keys == 1:
+            return np.arange(len(self.times))
+        return np.arange(self.key_frames[s], self.key_frames[s + 1] + 1)
+
+    def segment_times(self, s: int) -> np.ndarray:
+        """(T,) float64 local time of segment s's frames: 0 at its first key, 1 at its last."""
+        t = self.times[self.segment_frames(s)]
+        span = t[-1] - t[0]
+        return (t - t[0]) / span if span > 0 else np.zeros_like(t)
+
+    def segment_poses(self, s: int) -> np.ndarray:
+        """(T, J, 3) poses of segment s's frames."""
+        return self.poses[self.segment_frames(s)]
 
 
 @dataclass

@@ -22,11 +22,11 @@ from ops.shotio.versions import source_versions
 from ops.types import Shot
 
 from .. import progress
-from ..graph import EVAL_STAGES
+from ..graph import EVAL_STAGES, shot_graph
 from .errors import StageFailed
 from .locks import shot_lock
 from .logs import log_path
-from .planning import SHOT_STAGES, Plan, _remember_ui, plan, register, stage_warnings, store
+from .planning import Plan, _remember_ui, plan, register, stage_warnings, store
 from .session import Session, retry_database_locked
 
 EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (assets/farm/, docs/production.md)
@@ -88,22 +88,39 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
         shot, executed = _settle(shot, settings, verbose, executor)
         st = store()
         frames = st.read("inbetween_frames", partition)
-        paths = st.read("optimal_path", partition)
-        repairs = stage_warnings(partition)
+        names = plan_stages(shot)
+        repairs = stage_warnings(partition, names)
+        segments = [_segment_report(shot, s, st.read(f"seg{s}/optimal_path", partition), settings.blend)
+                    for s in range(shot.n_keys - 1)]
     stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
-                  "warnings": repairs.get(n, 0)} for n in SHOT_STAGES}
-    chosen = paths.optimal if settings.blend == "optimal" else paths.diagonal
+                  "warnings": repairs.get(n, 0)} for n in names}
     report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
               "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
-              "blend": settings.blend, "template": settings.template_mode, "stages": stages,
-              "frames_version": st.hash("inbetween_frames", partition),
-              "path": {"cost": float(chosen.cost), "cost_optimal": float(paths.optimal.cost),
-                       "cost_diagonal": float(paths.diagonal.cost),
-                       "abrupt_transitions": [[float(paths.times[i]), float(paths.times[i + 1])]
-                                              for i in range(len(chosen.abrupt)) if chosen.abrupt[i]]}}
+              "keys": shot.n_keys, "key_frames": list(shot.key_frames),
+              "blend": settings.blend if segments else "none", "template": settings.template_mode, "stages": stages,
+              "frames_version": st.hash("inbetween_frames", partition), "segments": segments}
+    if segments:  # the first segment's, where a two-key (v1) shot always had it
+        report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames")}
     report["seconds_total"] = round(time.perf_counter() - start, 3)
     write_outputs(Path(out_dir), frames.frames, report)
     return report
+
+
+def plan_stages(shot: Shot) -> tuple[str, ...]:
+    """The stages a run of this shot computes (its graph's, the evaluation group left out)."""
+    return shot_graph(shot.n_keys).stages
+
+
+def _segment_report(shot: Shot, s: int, paths, blend: str) -> dict:
+    """Segment s in report.json: its keys and output frames, its path (alpha per frame), costs, abrupt steps."""
+    chosen = paths.optimal if blend == "optimal" else paths.diagonal
+    frames = shot.segment_frames(s)
+    return {"keys": list(shot.segment_keys(s)), "frames": [int(frames[0]), int(frames[-1])],
+            "alphas": [float(paths.alphas[i]) for i in chosen.alpha_index],
+            "cost": float(chosen.cost), "cost_optimal": float(paths.optimal.cost),
+            "cost_diagonal": float(paths.diagonal.cost),
+            "abrupt_transitions": [[float(paths.times[i]), float(paths.times[i + 1])]
+                                   for i in range(len(chosen.abrupt)) if chosen.abrupt[i]]}
 
 
 SETTLE_ROUNDS = 3
@@ -125,8 +142,8 @@ def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_p
         try:
             if p.to_run or not p.recorded:
                 # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
-                executed.update(execute(p, settings, p.to_run or list(SHOT_STAGES), verbose, executor))
-                _remember_ui(p, SHOT_STAGES)
+                executed.update(execute(p, settings, p.to_run or list(p.graph.stages), verbose, executor))
+                _remember_ui(p, p.graph.stages)
             failure = None
         except (StageFailed, ShotError) as e:
             failure = e
@@ -145,7 +162,7 @@ def evaluate_stages(shot_dir: str | Path, settings: Settings | None = None, verb
     shot = load_shot(shot_dir)
     partition = register(shot.root)
     with shot_lock(partition):
-        p = plan(shot.root, settings, EVAL_STAGES, shot=shot)
+        p = plan(shot.root, settings, "evaluation", shot=shot)
         if p.to_run or not p.recorded:
             execute(p, settings, p.to_run or list(EVAL_STAGES), verbose)
             _remember_ui(p, EVAL_STAGES)
@@ -154,7 +171,7 @@ def evaluate_stages(shot_dir: str | Path, settings: Settings | None = None, verb
 
 def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None,
                  predicted: bool = False) -> list[Path]:
-    """Write each keyframe's masks as manual masks accept them (SHOT_FORMAT.md `inbetween masks`):
+    """Write each keyframe's masks as manual masks accept them (docs/shot-format.md, `inbetween masks`):
     OUT/key{k}_foreground.png and OUT/key{k}_occlusion_{i}.png, 8-bit, 255 = inside, keyframe size.
 
     The occlusion masks are the refined ones the template is built from (after the T-junctions), unless
@@ -164,8 +181,8 @@ def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings |
 
     settings = settings or Settings()
     stage = "masks" if predicted else "refined_masks"
-    names = tuple(f"key{k}/{n}" for k in (0, 1) for n in ("masks", "refined_masks"))
     shot = load_shot(shot_dir)
+    names = tuple(f"key{k}/{n}" for k in range(shot.n_keys) for n in ("masks", "refined_masks"))
     partition = register(shot.root)
     with shot_lock(partition):
         p = plan(shot.root, settings, names, shot=shot)
@@ -173,7 +190,7 @@ def export_masks(shot_dir: str | Path, out_dir: str | Path, settings: Settings |
             execute(p, settings, p.to_run)
     out, written = Path(out_dir), []
     out.mkdir(parents=True, exist_ok=True)
-    for k in (0, 1):
+    for k in range(shot.n_keys):
         masks = store().read(f"key{k}/{stage}", partition)
         written.append(write_image(out / f"key{k}_foreground.png", masks.foreground.astype(np.float32)))
         for i, region in enumerate(masks.occlusion):

@@ -21,12 +21,10 @@ from resources.registry import register_shot
 from resources.store import Store
 
 from ..codeversion import ROOT, project_fingerprint
-from ..graph import STAGES
+from ..graph import EVAL_STAGES, ShotGraph, shot_graph
 from ..home import home, instance_id
 from ..provenance import StageStatus, resolve, to_run
 from .logs import quiet_dagster_warnings
-
-SHOT_STAGES = STAGES
 
 
 def code_records() -> dict[str, dict[str, str]]:
@@ -78,6 +76,10 @@ class Plan:
     recorded: bool  # the Dagster instance already records exactly these versions (the UI is current)
 
     @property
+    def graph(self) -> ShotGraph:
+        return shot_graph(self.shot.n_keys)
+
+    @property
     def to_run(self) -> list[str]:
         return to_run(self.statuses)
 
@@ -95,14 +97,17 @@ def _ui_record_path(partition: str) -> Path:
     return store().root / partition / "dagster.json"
 
 
-def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[str, ...] = SHOT_STAGES,
+def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[str, ...] | None = None,
          shot: Shot | None = None) -> Plan:
-    """Validate the shot and decide the status of each of `stages` (ShotError on bad input)."""
+    """Validate the shot and decide the status of each of `stages` (default: the shot's, the evaluation group
+    left out; "evaluation": that group's) (ShotError on bad input)."""
     shot = shot or load_shot(shot_dir)
+    graph = shot_graph(shot.n_keys)
+    stages = graph.stages if stages is None else EVAL_STAGES if stages == "evaluation" else stages
     partition = register(shot.root)
     sources = source_versions(shot)
     st = store()
-    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages)
+    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages, graph)
     try:
         ui = json.loads(_ui_record_path(partition).read_text())
     except (OSError, ValueError):
@@ -133,7 +138,7 @@ def _remember_ui(p: Plan, stages: tuple[str, ...]) -> None:
     os.replace(tmp, path)
 
 
-def stage_warnings(partition: str, names: tuple[str, ...] = SHOT_STAGES) -> dict[str, int]:
+def stage_warnings(partition: str, names: tuple[str, ...]) -> dict[str, int]:
     """How many input repairs (warnings) each stored stage recorded: {stage: count}, stages without any left out."""
     st = store()
     out = {}

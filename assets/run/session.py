@@ -11,7 +11,6 @@ from pathlib import Path
 
 from ops.settings import Settings
 
-from ..graph import SOURCES
 from ..home import ensure_home, home, instance_id
 from .errors import HomeDamaged, raise_failure
 from .logs import quiet_dagster_warnings
@@ -100,9 +99,9 @@ class Session:
         """Record the sources' data versions as observations (no run is launched)."""
         from ..stage import asset_key
 
-        for name in SOURCES:
+        for name, version in sources.items():
             self.instance.report_runless_asset_event(self.dg.AssetObservation(
-                asset_key=asset_key(name), partition=partition, tags={"dagster/data_version": sources[name]}))
+                asset_key=asset_key(name), partition=partition, tags={"dagster/data_version": version}))
 
     def materialize(self, shot: str, partition: str, names: list[str], log_path: Path, verbose: bool = False):
         """Run the named stages of one partition in one in-process execution; StageFailed if a stage raises."""

@@ -15,11 +15,14 @@ from ops.geometry.deform import Deformer, deform_sequence
 from ops.types import DeformedSequence, RefinedMasks, Template, TexturedTemplate
 
 
-def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks, pose: np.ndarray,
-                 other_pose: np.ndarray, inpainter: Inpainter, mu: float = 200.0, grad_tol: float = 0.01,
+def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks | None, pose: np.ndarray,
+                 other_pose: np.ndarray | None, inpainter: Inpainter, mu: float = 200.0, grad_tol: float = 0.01,
                  max_iter: int = 5000) -> tuple[TexturedTemplate, float]:
-    """Depth weights + textures (§5.1) from both keyframes' masks and key poses (J, 3) -> (textured, energy at the other)."""
+    """Depth weights + textures (§5.1) from both keyframes' masks and key poses (J, 3) -> (textured, energy at the
+    other). Without another keyframe (None: one drawing) the hidden layers are inpainted and the energy is 0."""
     weights = depth_weights(template)
+    if other is None:
+        return texture_template(template, weights, own, None, pose, None, inpainter), 0.0
     deformer = Deformer(template.rest, template.faces, template.handles, mu=mu)
     to_other = deformer.solve(template.handle_targets(other_pose), grad_tol=grad_tol, max_iter=max_iter)
     textured = texture_template(template, weights, own, other, pose, to_other.x, inpainter)

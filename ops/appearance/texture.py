@@ -88,11 +88,11 @@ def _extend_margin(back: np.ndarray, inpainted: np.ndarray, covered: np.ndarray,
     inpainted[ring] = inpainted[iy[ring], ix[ring]]
 
 
-def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, other: RefinedMasks,
-                     pose: np.ndarray, deformed_to_other: np.ndarray, inpainter: Inpainter) -> TexturedTemplate:
+def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, other: RefinedMasks | None,
+                     pose: np.ndarray, deformed_to_other: np.ndarray | None, inpainter: Inpainter) -> TexturedTemplate:
     """Both keyframes' masks (their coverage and unmixed colour are the drawings), the keyframe's pose (J, 3),
     the template deformed to the other keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at
-    the keyframe shows the drawing)."""
+    the keyframe shows the drawing). No other keyframe (None, a one-drawing shot): every hidden face is inpainted."""
     shape = own.foreground.shape
     texture = character_rgba(own)
     face_source = np.where(drawing_faces(template, weights, pose), 0, 1).astype(np.int64)
@@ -100,6 +100,15 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     back_inpainted = np.zeros(shape, dtype=bool)
     hidden = np.nonzero(face_source > 0)[0]
     if hidden.size == 0:
+        return TexturedTemplate(template, weights, face_source, texture, back, back_inpainted)
+    if other is None:  # one drawing: no other keyframe shows the hidden layers, so all of them are inpainted
+        face_source[hidden] = 2
+        covered = _back_samples(template, hidden, template.rest, shape)[0] >= 0
+        back[..., :3] = np.asarray(inpainter(texture[..., :3].astype(np.float32), covered), dtype=np.float32)
+        back[..., 3] = 1.0
+        back[~covered] = 0.0
+        back_inpainted[:] = covered
+        _extend_margin(back, back_inpainted, covered, MARGIN)
         return TexturedTemplate(template, weights, face_source, texture, back, back_inpainted)
 
     visible = np.asarray(other.foreground, dtype=bool).copy()

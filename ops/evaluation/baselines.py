@@ -15,12 +15,14 @@ from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import interpolation_quality, quality_inputs
 from ops.evaluation.metrics import chamfer, psnr, ssim
+from ops.evaluation.plate import over, paper_plate
+from ops.shotio.image_io import to_rgba
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix
 
 if TYPE_CHECKING:
     import pandas as pd
 
-METHODS = ("ours", "ours_diagonal", "single_layer", "rife_direct", "cross_dissolve")
+METHODS = ("ours", "ours_diagonal", "single_layer", "rife_direct", "cross_dissolve", "held_drawing")
 
 
 def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
@@ -58,18 +60,39 @@ def blend_sequences(seq0: DeformedSequence, seq1: DeformedSequence, rife, depth:
     return matrix, paths
 
 
-def compare(ground_truth: np.ndarray, methods: dict[str, np.ndarray], times: np.ndarray) -> pd.DataFrame:
-    """Per method and frame: PSNR, SSIM, Chamfer against ground truth (T, H, W, C); long table."""
+def compare(ground_truth: np.ndarray, methods: dict[str, np.ndarray], times: np.ndarray,
+            frames: np.ndarray | None = None, interior: np.ndarray | None = None) -> pd.DataFrame:
+    """Per method and scored frame: PSNR, SSIM, Chamfer against ground truth (G, H, W, C); long table.
+
+    frames: (G,) the output frame of each reference (default 0 .. G-1); interior: (G,) bool, frames that are not
+    keyframes (default: all but the first and the last)."""
     import pandas as pd  # imported where a table is built: importing this module stays cheap
 
+    G = len(times)
+    frames = np.arange(G) if frames is None else np.asarray(frames)
+    interior = (np.arange(G) > 0) & (np.arange(G) < G - 1) if interior is None else np.asarray(interior)
     rows = []
-    T = len(times)
-    for name, frames in methods.items():
-        for i in range(T):
-            rows.append({"method": name, "frame": i, "t": float(times[i]), "interior": 0 < i < T - 1,
-                         "psnr": psnr(frames[i], ground_truth[i]), "ssim": ssim(frames[i], ground_truth[i]),
-                         "chamfer": chamfer(frames[i], ground_truth[i])})
+    for name, got in methods.items():
+        for i in range(G):
+            rows.append({"method": name, "frame": int(frames[i]), "t": float(times[i]), "interior": bool(interior[i]),
+                         "psnr": psnr(got[i], ground_truth[i]), "ssim": ssim(got[i], ground_truth[i]),
+                         "chamfer": chamfer(got[i], ground_truth[i])})
     return pd.DataFrame(rows)
+
+
+def held_drawing(drawing: np.ndarray, count: int) -> np.ndarray:
+    """The baseline of a one-drawing shot: the drawing (H, W, 4) held still for count frames -> (count, H, W, 4)."""
+    return np.repeat(np.asarray(drawing, np.float32)[None], count, axis=0)
+
+
+def lane_agreement(frame: np.ndarray, drawing: np.ndarray, coverage: np.ndarray, paper: np.ndarray
+                   ) -> tuple[float, float]:
+    """(PSNR dB, Chamfer) of a lane's frame (H, W, 4), deformed to another key's pose, against that key's drawing
+    (H, W, C), composited over the key's own paper (its bare pixels, its paper model (H, W, 3) under coverage)."""
+    plate = paper_plate([drawing], [coverage], [paper])
+    got = over(np.asarray(frame)[None], plate)[0]
+    want = to_rgba(drawing)[..., :3]
+    return psnr(got, want), chamfer(got, want)
 
 
 def summarize(table: pd.DataFrame) -> pd.DataFrame:

@@ -183,17 +183,17 @@ def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.nd
 class _Search:
     """Memoized topology evaluation: every distinct combination of region choices is solved once."""
 
-    def __init__(self, base: TemplateBase, path: list[np.ndarray], solver: Solver):
-        """base: the front-sheet template; path: (h, 2) handle targets towards the other pose, pixels."""
-        self.base, self.path, self.solver = base, path, solver
+    def __init__(self, base: TemplateBase, paths: list[list[np.ndarray]], solver: Solver):
+        """base: the front-sheet template; paths: per target pose, the (h, 2) handle targets towards it, pixels."""
+        self.base, self.paths, self.solver = base, paths, solver
         self.cache: dict[tuple, tuple[float, Incised, list[Assignment]]] = {}
 
     def score(self, choice: tuple, options: list) -> float:
         """Energy of the per-region option indices `choice` (options[r](i) -> Assignment)."""
         if choice not in self.cache:
             assign = [options[r](i) for r, i in enumerate(choice)]
-            e, inc, _ = evaluate(self.base, assign, self.path, self.solver)
-            self.cache[choice] = (e, inc, assign)
+            scored = [evaluate(self.base, assign, path, self.solver) for path in self.paths]
+            self.cache[choice] = (float(sum(e for e, _, _ in scored)), scored[0][1], assign)
         return self.cache[choice][0]
 
 
@@ -221,16 +221,18 @@ def _region_optimum(search: _Search, choice: list[int], r: int, options: list, n
 def optimize_topology(
     refined: RefinedMasks,
     pose_self: np.ndarray,
-    pose_other: np.ndarray,
+    pose_other: np.ndarray | list[np.ndarray],
     skeleton: Skeleton,
     mode: str = "optimized",
     seed: int = 0,
     max_area: float | None = None,
     solver: Solver = Solver(),
 ) -> Template:
-    """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3)."""
+    """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3),
+    or summed over a list of target poses (the neighbouring keys' poses: the key deforms well on both sides)."""
     base = build_template(refined, pose_self, skeleton, mode, max_area)
-    search = _Search(base, handle_path(base, pose_self, pose_other, skeleton.parents), solver)
+    targets = [pose_other] if isinstance(pose_other, np.ndarray) and pose_other.ndim == 2 else list(pose_other)
+    search = _Search(base, [handle_path(base, pose_self, t, skeleton.parents) for t in targets], solver)
     options, sizes, ks = [], [], []
     for r in range(base.n_regions):
         n, jn = len(base.boundaries[r]), base.junctions[r]

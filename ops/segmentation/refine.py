@@ -204,12 +204,12 @@ def _positions(B: np.ndarray, J: np.ndarray) -> np.ndarray:
 
 
 def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
-                 other_pose: np.ndarray | None = None) -> RefinedMasks:
+                 other_pose: np.ndarray | list[np.ndarray] | None = None) -> RefinedMasks:
     """Refine every occlusion region of `masks` by the keyframe's (k, 2) T-junctions (pixels) at its (J, 3) pose.
 
     Every click is kept: a region is grown to meet a click far from it, or started at a click when there is
-    no region at all (ops.segmentation.junctions). With the other keyframe's (J, 3) pose, a part that it takes
-    off the body it crosses here is also slit free at its T-junctions (ops.segmentation.slits.junction_slits).
+    no region at all (ops.segmentation.junctions). With the other keyframe's (J, 3) pose (or the list of the
+    neighbouring keys' poses), a part that one of them takes off the body it crosses here is also slit free at its T-junctions (ops.segmentation.slits.junction_slits).
     """
     warnings = list(masks.warnings)
     fg = masks.foreground

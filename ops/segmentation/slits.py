@@ -52,7 +52,7 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> n
 
 def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], front_bones: list[np.ndarray],
                    regions: np.ndarray, domain: list[np.ndarray], coverage: np.ndarray, pose: np.ndarray,
-                   skeleton: Skeleton, other_pose: np.ndarray, contacts: np.ndarray | None = None
+                   skeleton: Skeleton, other_pose: np.ndarray | list[np.ndarray], contacts: np.ndarray | None = None
                    ) -> list[np.ndarray]:
     """Open polylines (n, 2) float64 from T-junctions out through the paper to the mesh's outline (or a hole's).
     regions: (H, W) bool pixels of the occlusion regions, which a slit does not cross; contacts: (H, W) bool
@@ -67,7 +67,7 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
     (times 1.5 for its bends). Only where the part and the body are not joined: the region's front bone
     nearest the junction and the nearest other bone not its neighbour (the body it crosses, not its own
     chain) share no neighbouring bone (an upper arm under a sleeve stays sewn at the shoulder, thighs under
-    a skirt at the hem), and only where the other keyframe's pose (J, 3) takes the part off that body: the
+    a skirt at the hem), and only where the other keyframe's pose (J, 3) (or one of a list: the neighbouring keys') takes the part off that body: the
     junction, carried with its front bone, ends SEPARATE_PX farther from the crossed bone. A part that stays
     on the body (a hand resting on a belly in both keyframes) stays sewn at the junction: freed, it slid with
     its handles where the drawing had it still (flat_colour's claw). Where the part and the body touch beyond
@@ -79,7 +79,8 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
     inside = _fill(domain, (h, w))
     adjacent = skeleton.adjacent_bones()
     ends_xy = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
-    other_ends = np.asarray(other_pose)[skeleton.bones, :2].astype(np.float64)
+    others = [other_pose] if np.ndim(other_pose) == 2 else list(other_pose)  # the neighbouring keys' poses
+    other_ends = [np.asarray(o)[skeleton.bones, :2].astype(np.float64) for o in others]
     scale = scale_of(coverage.shape)
     reach = int(np.ceil(REACH_OUTLINE_PX * 1.5)) + 2
     out = []
@@ -97,8 +98,8 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
             k = crossed[np.argmin(dist[crossed])]
             if (adjacent[f] & adjacent[k]).any():  # joined through one bone: a sleeve's shoulder, a skirt's hem
                 continue
-            there = _moved_with_bone(p, ends_xy[f], other_ends[f])
-            if segment_distance(there, *other_ends[k]) - dist[k] < SEPARATE_PX * scale:
+            apart = [segment_distance(_moved_with_bone(p, ends_xy[f], e[f]), *e[k]) - dist[k] for e in other_ends]
+            if max(apart) < SEPARATE_PX * scale:  # no neighbouring key takes the part off the body
                 continue
             slit = _way_out(p, coverage, inside, regions, domain, reach, contacts)
             if slit is not None:

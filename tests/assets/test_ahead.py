@@ -8,6 +8,8 @@ import assets.ahead as ahead
 from assets.stage import Outcome, StageResult
 from ops.settings import Settings
 
+TWO_KEYS = SimpleNamespace(n_keys=2)  # all the work-ahead reads of the shot: its graph
+
 
 class _Store:
     """Records what the work-ahead writes ahead and discards."""
@@ -37,7 +39,7 @@ def _outcome(name: str) -> Outcome:
 def test_each_new_output_is_written_ahead_before_its_step_takes_it(monkeypatch):
     monkeypatch.setattr(ahead, "run_stage", lambda name, env, parents, settings: _outcome(name))
     store = _Store()
-    work = ahead.WorkAhead("p", ["key0/masks", "key0/refined_masks"], None, {}, Settings(), store, {})
+    work = ahead.WorkAhead("p", ["key0/masks", "key0/refined_masks"], TWO_KEYS, {}, Settings(), store, {})
     work.start()
     try:
         for name in ("key0/masks", "key0/refined_masks"):
@@ -52,7 +54,7 @@ def test_an_idle_worker_loads_rife_before_rife_matrix_needs_it(monkeypatch):
     release, loaded, order = threading.Event(), threading.Event(), []
 
     def run_stage(name, env, parents, settings):
-        if name == "key0/deformed_frames":
+        if name == "seg0/key0/deformed_frames":
             assert release.wait(10)  # the other worker has nothing to do meanwhile
         order.append(name)
         return _outcome(name)
@@ -62,14 +64,14 @@ def test_an_idle_worker_loads_rife_before_rife_matrix_needs_it(monkeypatch):
         loaded.set()
 
     monkeypatch.setattr(ahead, "run_stage", run_stage)
-    monkeypatch.setitem(ahead.STAGE_SPECS, "rife_matrix", SimpleNamespace(resources=("rife",)))
-    names = ["key0/deformed_frames", "key1/deformed_frames", "rife_matrix"]
-    work = ahead.WorkAhead("p", names, None, {}, Settings(), _Store(), {"rife": SimpleNamespace(load=load)})
+    monkeypatch.setitem(ahead.STAGE_SPECS, "seg0/rife_matrix", SimpleNamespace(resources=("rife",)))
+    names = ["seg0/key0/deformed_frames", "seg0/key1/deformed_frames", "seg0/rife_matrix"]
+    work = ahead.WorkAhead("p", names, TWO_KEYS, {}, Settings(), _Store(), {"rife": SimpleNamespace(load=load)})
     work.start()
     try:
         assert loaded.wait(10)
         release.set()
-        work.outcome("rife_matrix", _Context())
+        work.outcome("seg0/rife_matrix", _Context())
     finally:
         work.close()
-    assert order.index("load rife") < order.index("rife_matrix") and order.count("load rife") == 1
+    assert order.index("load rife") < order.index("seg0/rife_matrix") and order.count("load rife") == 1

@@ -46,10 +46,10 @@ def test_done_when_examples():
     snap = stale_after_edit(file_of("snap_into"))
     assert {"key0/refined_masks", "key1/refined_masks"} <= snap and "key0/masks" not in snap
     mesh = stale_after_edit(file_of("vertex_components"))
-    assert {"key0/textured_template", "key0/deformed_frames", "key1/deformed_frames"} <= mesh
+    assert {"seg0/key0/textured_template", "seg0/key0/deformed_frames", "seg0/key1/deformed_frames"} <= mesh
     assert "key0/masks" not in mesh
     rife = stale_after_edit(file_of("warp"))
-    assert "rife_matrix" in rife and not {"key0/masks", "key0/template"} & rife
+    assert "seg0/rife_matrix" in rife and not {"key0/masks", "key0/template"} & rife
 
 
 def _ast_imports(path: Path, module: str) -> set[str]:
@@ -87,7 +87,7 @@ def test_every_stage_changes_exactly_with_its_import_closure():
         for m in modules:
             changed = version_after_edit(name, BASE.relpath(m)) != before
             assert changed == (m in reach), f"{name}: editing {m} {'changes' if changed else 'keeps'} its version"
-        assert "ops/types.py" in spec.code or name == "quality_metrics"  # dataclass layouts are part of the code
+        assert "ops/types.py" in spec.code or name == "seg0/quality_metrics"  # dataclass layouts are part of the code
 
 
 def test_own_function_edit_is_code_change_and_closure_is_fast():
@@ -114,5 +114,5 @@ def test_new_ops_module_imported_by_an_op_is_covered(tmp_path):
                          env={"PATH": "/usr/bin:/bin", "INBETWEEN_HOME": str(tmp_path / "home"), "PYTHONPATH": str(tmp_path)})
     records = json.loads(out.stdout.strip().splitlines()[-1])
     has = {n for n, r in records.items() if "ops/geometry/newhelper.py" in r}
-    assert {"key0/refined_masks", "key0/template", "key0/textured_template", "key1/deformed_frames"} <= has
-    assert "key0/masks" not in has and "rife_matrix" not in has
+    assert {"key0/refined_masks", "key0/template", "seg0/key0/textured_template", "seg0/key1/deformed_frames"} <= has
+    assert "key0/masks" not in has and "seg0/rife_matrix" not in has

@@ -12,10 +12,12 @@ import numpy as np
 import pytest
 
 from assets.cli import main
-from assets.graph import PARENTS, STAGES
+from assets.graph import shot_graph
 from assets.run import run_shot
 
 from .conftest import frames_of
+
+STAGES, PARENTS = shot_graph(2).stages, shot_graph(2).parents
 
 pytestmark = pytest.mark.slow
 
@@ -74,7 +76,7 @@ def test_editing_inbetween_motion_keeps_masks_and_templates(home, small_shot, tm
     (small_shot / "shot.json").write_text(json.dumps(data))
     ran = executed(run_shot(small_shot, tmp_path / "out"))
     assert not {s for s in ran if s.split("/")[-1] in ("masks", "refined_masks", "template", "textured_template")}
-    assert {"key0/deformed_frames", "key1/deformed_frames"} <= ran
+    assert {"seg0/key0/deformed_frames", "seg0/key1/deformed_frames"} <= ran
 
 
 def test_killed_run_then_rerun_matches_uninterrupted(home, small_shot, tmp_path):
@@ -86,7 +88,7 @@ def test_killed_run_then_rerun_matches_uninterrupted(home, small_shot, tmp_path)
     env2 = {**os.environ, "INBETWEEN_HOME": str(home), "DAGSTER_HOME": str(home / "dagster")}
     proc = subprocess.Popen([sys.executable, "-m", "assets.cli", "run", str(small_shot), "--out", str(tmp_path / "killed")],
                             env=env2, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
-    marker = home / "storage" / "arm_cross" / "key0" / "deformed_frames" / "meta.json"
+    marker = home / "storage" / "arm_cross" / "seg0" / "key0" / "deformed_frames" / "meta.json"
     deadline = time.time() + 300
     while not marker.exists() and proc.poll() is None and time.time() < deadline:
         time.sleep(0.05)

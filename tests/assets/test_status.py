@@ -8,9 +8,11 @@ import pytest
 
 from assets import run as runs
 from assets.cli import main
-from assets.graph import STAGES
+from assets.graph import shot_graph
 from assets.run import planning
 from ops.settings import Settings
+
+STAGES = shot_graph(2).stages
 
 pytestmark = pytest.mark.slow
 
@@ -36,13 +38,13 @@ def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, m
     (small_shot / "shot.json").write_text(json.dumps(data))
     plan = runs.status(small_shot)
     stale = {n for n, s in plan.statuses.items() if s.state != "fresh"}
-    key1_down = {"key1/refined_masks", "key1/template", "key1/textured_template", "key1/deformed_frames",
-                 "rife_matrix", "quality_metrics", "optimal_path", "inbetween_frames"}
+    key1_down = {"key1/refined_masks", "key1/template", "seg0/key1/textured_template", "seg0/key1/deformed_frames",
+                 "seg0/rife_matrix", "seg0/quality_metrics", "seg0/optimal_path", "inbetween_frames"}
     assert key1_down <= stale and not stale & set(KEY0_UPSTREAM) and "key1/masks" not in stale
     assert plan.statuses["key1/refined_masks"].causes == ["key1/t_junctions changed"]
-    assert "upstream key1/template stale" in plan.statuses["key1/textured_template"].causes
+    assert "upstream key1/template stale" in plan.statuses["seg0/key1/textured_template"].causes
     # key0's texture reads key1's refined masks (which parts of key0's pockets key1 shows, §5.1)
-    assert stale - key1_down <= {"key0/textured_template", "key0/deformed_frames"}
+    assert stale - key1_down <= {"seg0/key0/textured_template", "seg0/key0/deformed_frames"}
     assert main(["status", str(small_shot), "--json"]) == 0
     printed = json.loads(capsys.readouterr().out)
     assert {n for n, s in printed["stages"].items() if s["state"] != "fresh"} == stale

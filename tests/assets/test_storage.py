@@ -86,7 +86,7 @@ def test_an_output_written_ahead_is_renamed_into_place_by_its_write(tmp_path):
 def test_hash_while_pandas_is_half_imported(monkeypatch):
     """An idle worker imports pandas on its own thread; meanwhile sys.modules holds the half-initialized module,
     with no DataFrame yet. Hashing a stage's value then must not touch it (two_poses crashed in
-    key1/textured_template with "partially initialized module 'pandas' has no attribute 'DataFrame'")."""
+    seg0/key1/textured_template with "partially initialized module 'pandas' has no attribute 'DataFrame'")."""
     import sys
     import types
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from assets.graph import ALL_PARENTS, SOURCES
+from assets.graph import union_graph, union_sources
 
 ROOT = Path(__file__).resolve().parents[2]
 QUERY = "{ assetNodes { assetKey { path } dependencyKeys { path } } }"
@@ -54,5 +54,5 @@ def test_graphql_asset_nodes_match_design(home):
         except subprocess.TimeoutExpired:
             proc.kill()
     graph = {"/".join(n["assetKey"]["path"]): {"/".join(d["path"]) for d in n["dependencyKeys"]} for n in nodes}
-    expected = {name: set(parents) for name, parents in ALL_PARENTS.items()} | {s: set() for s in SOURCES}
+    expected = {name: set(parents) for name, parents in union_graph().items()} | {s: set() for s in union_sources()}
     assert graph == expected

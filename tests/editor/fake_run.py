@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-STAGES = "key1/refined_masks,key1/template,rife_matrix,inbetween_frames"
+STAGES = "key1/refined_masks,key1/template,seg0/rife_matrix,inbetween_frames"
 
 
 def main() -> int:

@@ -11,9 +11,11 @@ import cv2
 import numpy as np
 import pytest
 
-from assets.graph import PARENTS, STAGES
+from assets.graph import shot_graph
 
 from .conftest import call, call_json
+
+STAGES, PARENTS = shot_graph(2).stages, shot_graph(2).parents
 
 pytestmark = pytest.mark.slow
 

@@ -31,7 +31,7 @@ def test_restarted_editor_follows_a_rerun_that_still_runs(tmp_path):
     second.start()
     st = second.wait_idle(20)
     assert st["state"] == "done" and st["seq"] == 1 and "restarted" in st["note"]
-    assert set(st["stages"]) == {"key1/refined_masks", "key1/template", "rife_matrix", "inbetween_frames"}
+    assert set(st["stages"]) == {"key1/refined_masks", "key1/template", "seg0/rife_matrix", "inbetween_frames"}
     assert json.loads((tmp_path / "work" / "rerun.json").read_text())["pid"] == pid  # no second process started
 
 

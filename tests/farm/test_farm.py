@@ -18,11 +18,13 @@ from pathlib import Path
 
 import pytest
 
-from assets.graph import STAGES
+from assets.graph import shot_graph
 from tests.assets.conftest import SAMPLES, scaled_copy
 
 from .local import ROOT, local_farm
 from .servers import free_port
+
+STAGES = shot_graph(2).stages
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(1800)]  # the first test sets up two batches
 EXTRA = "the farm extra (pip install -e '.[farm]'), which .ci/run installs"
@@ -30,7 +32,7 @@ pytest.importorskip("dagster_celery", reason=EXTRA)
 psycopg2 = pytest.importorskip("psycopg2", reason=EXTRA)
 
 SHOTS = ("arm_cross", "legs_cross", "two_poses")
-KILLED_STAGE = "rife_matrix"  # the longest stage: a kill lands in its middle on any machine
+KILLED_STAGE = "seg0/rife_matrix"  # the longest stage: a kill lands in its middle on any machine
 
 
 def small_copy(name: str, dst: Path) -> Path:
@@ -146,7 +148,7 @@ def test_forced_farm_run_of_an_unchanged_shot_finds_every_stage_cached(farm, far
     from assets.run import execute, plan
     from ops.settings import Settings
 
-    stages = ["key0/masks", "key1/template", "rife_matrix", "inbetween_frames"]  # both lanes and the blending
+    stages = ["key0/masks", "key1/template", "seg0/rife_matrix", "inbetween_frames"]  # both lanes and the blending
     meta = home / "storage" / SHOTS[0]
     mtimes = {n: (meta / n / "meta.json").stat().st_mtime_ns for n in stages}
     timings = execute(plan(shots / SHOTS[0]), Settings(), stages, executor="celery")

@@ -10,6 +10,8 @@ import pytest
 import yaml
 
 from assets.farm.settings import CPU_QUEUE, GPU_QUEUE, queue_for
+from assets.graph import EVAL_STAGES, union_graph
+from ops.shotio.load import MAX_KEYS
 
 from .local import ROOT, docs_block
 
@@ -27,9 +29,9 @@ def _queues(device: str) -> dict[str, str]:
 
 def test_rife_matrix_goes_to_gpu_only_with_cuda():
     on_gpu = _queues("cuda")
-    assert {n for n, q in on_gpu.items() if q == GPU_QUEUE} == {"rife_matrix"}
+    assert {n for n, q in on_gpu.items() if q == GPU_QUEUE} == {f"seg{s}/rife_matrix" for s in range(MAX_KEYS - 1)}
     assert set(_queues("cpu").values()) == {CPU_QUEUE}
-    assert len(on_gpu) == 14
+    assert set(on_gpu) == set(union_graph()) - set(EVAL_STAGES)  # every stage of any shot, the evaluation aside
 
 
 def test_documented_run_config_is_valid_for_the_farm_job(monkeypatch):

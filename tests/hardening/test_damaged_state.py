@@ -21,13 +21,13 @@ def test_truncated_and_deleted_outputs_are_recomputed(warm, tmp_path):
     before = json.loads((warm.home / "storage" / warm.partition / "inbetween_frames" / "meta.json").read_text())["hash"]
     npz = warm.home / "storage" / warm.partition / "key1" / "template" / "arrays.npz"
     npz.write_bytes(npz.read_bytes()[: npz.stat().st_size // 2])
-    shutil.rmtree(warm.home / "storage" / warm.partition / "quality_metrics")
+    shutil.rmtree(warm.home / "storage" / warm.partition / "seg0" / "quality_metrics")
     states = {n: s.state for n, s in status(warm.shot).statuses.items()}
-    assert states["key1/template"] == states["quality_metrics"] == "missing"
+    assert states["key1/template"] == states["seg0/quality_metrics"] == "missing"
     assert states["key0/template"] == "fresh"
     report = run_shot(warm.shot, tmp_path / "out")
     ran = {n for n, s in report["stages"].items() if not s["cached"]}
-    assert ran == {"key1/template", "quality_metrics"}  # recomputed; everything else found its inputs unchanged
+    assert ran == {"key1/template", "seg0/quality_metrics"}  # recomputed; everything else found its inputs unchanged
     assert report["frames_version"] == before
 
 
@@ -61,7 +61,7 @@ def test_damaged_dagster_home_is_one_line_with_its_fix(warm, tmp_path):
 
 
 def test_full_disk_in_a_stage_keeps_the_outputs_and_says_so(warm, tmp_path, monkeypatch, capsys):
-    stage = warm.home / "storage" / warm.partition / "optimal_path"
+    stage = warm.home / "storage" / warm.partition / "seg0" / "optimal_path"
     stage_meta = (stage / "meta.json").read_bytes()
     (stage / "meta.json").write_text("{}")  # damaged: optimal_path must be written again
     with monkeypatch.context() as m:  # (not monkeypatch.undo(): that would also undo `warm`'s environment)
@@ -69,16 +69,16 @@ def test_full_disk_in_a_stage_keeps_the_outputs_and_says_so(warm, tmp_path, monk
         assert main(["run", str(warm.shot), "--out", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     line = [x for x in err.splitlines() if x.startswith("error:")]
-    assert len(line) == 1 and "optimal_path" in line[0] and "No space left on device" in line[0]
+    assert len(line) == 1 and "seg0/optimal_path" in line[0] and "No space left on device" in line[0]
     assert "free disk space" in line[0]
     assert not [p for p in stage.parent.iterdir() if p.name.startswith((".tmp-", ".old-"))]
-    other = warm.home / "storage" / warm.partition / "quality_metrics" / "meta.json"
+    other = warm.home / "storage" / warm.partition / "seg0" / "quality_metrics" / "meta.json"
     assert json.loads(other.read_text())["hash"]  # the outputs before it are untouched
     assert main(["run", str(warm.shot), "--out", str(tmp_path / "out")]) == 0  # space again: it goes on
     assert json.loads((stage / "meta.json").read_text())["hash"] == json.loads(stage_meta)["hash"]
     assert len(list((tmp_path / "out" / "frames").glob("*.png"))) == 3
     report = json.loads((tmp_path / "out" / "report.json").read_text())
-    assert {n for n, s in report["stages"].items() if s["executed"]} == {"optimal_path", "inbetween_frames"}
+    assert {n for n, s in report["stages"].items() if s["executed"]} == {"seg0/optimal_path", "inbetween_frames"}
 
 
 def test_enospc_is_named_by_the_cli_for_any_command(tmp_path, monkeypatch, capsys):
@@ -110,7 +110,7 @@ def test_an_interrupted_run_says_so_and_goes_on_when_rerun(warm, tmp_path, monke
     interrupted and a rerun goes on, not the stage's input advice; the stages stored before it are kept."""
     import assets.blending as blending
 
-    shutil.rmtree(warm.home / "storage" / warm.partition / "quality_metrics")
+    shutil.rmtree(warm.home / "storage" / warm.partition / "seg0" / "quality_metrics")
 
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
@@ -123,4 +123,4 @@ def test_an_interrupted_run_says_so_and_goes_on_when_rerun(warm, tmp_path, monke
     assert "check " not in lines[0]  # no stage's advice about the shot's input
     assert main(["run", str(warm.shot), "--out", str(tmp_path / "out")]) == 0
     report = json.loads((tmp_path / "out" / "report.json").read_text())
-    assert {n for n, s in report["stages"].items() if not s["cached"]} == {"quality_metrics"}
+    assert {n for n, s in report["stages"].items() if not s["cached"]} == {"seg0/quality_metrics"}

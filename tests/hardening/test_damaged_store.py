@@ -66,14 +66,14 @@ DAMAGE = ["npz truncated", "npz deleted", "image truncated", "image deleted", "m
 @pytest.mark.parametrize("kind", DAMAGE)
 def test_damaged_output_reads_as_missing_and_is_rewritten(tmp_path, kind):
     st = Store(tmp_path)
-    st.write("rife_matrix", "shot", _frames(0), provenance={"parents": {}})
-    path = st.path("rife_matrix", "shot")
+    st.write("seg0/rife_matrix", "shot", _frames(0), provenance={"parents": {}})
+    path = st.path("seg0/rife_matrix", "shot")
     _damage(path, kind)
-    assert st.hash("rife_matrix", "shot") is None  # never trusted
+    assert st.hash("seg0/rife_matrix", "shot") is None  # never trusted
     assert stored_provenance(path) == (None, None)
     fresh = _frames(1)
-    assert st.write("rife_matrix", "shot", fresh) == content_hash(fresh)  # and rewritten in its place
-    np.testing.assert_array_equal(st.read("rife_matrix", "shot").frames, fresh.frames)
+    assert st.write("seg0/rife_matrix", "shot", fresh) == content_hash(fresh)  # and rewritten in its place
+    np.testing.assert_array_equal(st.read("seg0/rife_matrix", "shot").frames, fresh.frames)
 
 
 class _DiskFull:

@@ -71,11 +71,11 @@ def test_verbose_shows_the_event_log_live(warm, tmp_path):
 
 def _break_a_stored_stage(warm) -> None:
     """Same-size garbage in key0's deformed frames (intact by size, unreadable), and their reader missing."""
-    npz = warm.home / "storage" / warm.partition / "key0" / "deformed_frames" / "arrays.npz"
+    npz = warm.home / "storage" / warm.partition / "seg0" / "key0" / "deformed_frames" / "arrays.npz"
     npz.write_bytes(os.urandom(npz.stat().st_size))
     import shutil
 
-    shutil.rmtree(warm.home / "storage" / warm.partition / "rife_matrix")
+    shutil.rmtree(warm.home / "storage" / warm.partition / "seg0" / "rife_matrix")
 
 
 def test_a_failing_stage_is_one_line_with_the_log(warm, tmp_path):
@@ -95,7 +95,7 @@ def test_a_failing_stage_is_one_line_with_the_log(warm, tmp_path):
     assert done.returncode == 1 and "Traceback" not in done.stderr
     assert [line.split()[-1] for line in done.stdout.splitlines()[2:3]] == ["failed"]
     errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
-    assert len(errors) == 1 and "rife_matrix" in errors[0], done.stderr
+    assert len(errors) == 1 and "seg0/rife_matrix" in errors[0], done.stderr
 
 
 def test_the_process_leaves_past_a_stage_still_computing_ahead():

@@ -90,7 +90,7 @@ def test_paper_plate_gives_back_each_keyframe_and_over_is_exact():
     c0[5:10, 5:10], c1[8:15, 12:20] = 1.0, 1.0
     key0[c0 > 0], key1[c1 > 0] = 0.1, 0.2
     smooth = np.full((20, 30, 3), 0.92, np.float32)
-    plate = paper_plate(key0, key1, c0, c1, smooth, smooth)
+    plate = paper_plate([key0, key1], [c0, c1], [smooth, smooth])
     assert np.array_equal(plate[c0 == 0], key0[c0 == 0])  # key0's own paper, grain included
     assert np.array_equal(plate[(c0 > 0) & (c1 == 0)], key1[(c0 > 0) & (c1 == 0)])  # uncovered by key1
     rgb = np.broadcast_to(np.where(c0[..., None] > 0, 0.1, 0.5), (20, 30, 3))

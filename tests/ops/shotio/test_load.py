@@ -150,4 +150,4 @@ def test_source_versions_cover_exactly_their_fields(tmp_path):
     data["poses"].insert(1, {"t": 0.5, "joints": _pose(0.5)})
     (shot_dir / "shot.json").write_text(json.dumps(data))
     v2 = source_versions(load_shot(shot_dir))
-    assert {k for k in v1 if v1[k] != v2[k]} == {"motion"}
+    assert {k for k in v1 if v1[k] != v2[k]} == {"seg0/motion"}
