@@ -251,7 +251,9 @@ def _write_motion(shot_dir: Path, file: Path, v2: dict, key_frames: np.ndarray, 
         if n > last + 1:
             warnings.append(f"the clip's {n - last - 1} frames after the last key (frame {last}) are left out")
             poses = poses[: last + 1]
-    v2["poses"] = [pose_json(f, p) for f, p in enumerate(poses)]
+    drawn = {float(p["frame"]): p for p in v2["poses"]}
+    # the key poses exactly as written (the fit meets them to ~1e-12 px; rounding must not move them either)
+    v2["poses"] = [dict(drawn[float(f)]) if f in key_frames else pose_json(f, p) for f, p in enumerate(poses)]
     shutil.copyfile(file, file.with_name("shot.json.bak"))
     write_json(file, v2)
     for w in warnings:

@@ -36,7 +36,7 @@ def read_video(path: str | Path, max_frames: int = MAX_VIDEO_FRAMES) -> tuple[np
         raise ShotError(file, "--video", "file not found", "give the path of a video file")
     fix = "give a video ffmpeg can decode (MP4/H.264, MOV, AVI, WebM)"
     try:
-        reader = imageio_ffmpeg.read_frames(str(file), pix_fmt="gray")
+        reader = imageio_ffmpeg.read_frames(str(file), pix_fmt="gray", bpp=1)
         meta = next(reader)
         w, h = meta["size"]
         frames = []
