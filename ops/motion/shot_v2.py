@@ -47,6 +47,19 @@ def new_shot(keyframes: list[str], key_frames: list[int], joints: tuple[str, ...
     }
 
 
+def _one_per_key(out: dict) -> dict:
+    """t_junctions and masks with one entry per keyframe (v1 allows them missing or short)."""
+    n = len(out.get("keyframes") or [])
+    tj = list(out.get("t_junctions") or [])
+    out["t_junctions"] = (tj + [[] for _ in range(n)])[:n]
+    masks = dict(out.get("masks") or {})
+    fg, occ = list(masks.get("foreground") or []), list(masks.get("occlusion") or [])
+    masks["foreground"] = (fg + [None] * n)[:n]
+    masks["occlusion"] = (occ + [[] for _ in range(n)])[:n]
+    out["masks"] = masks
+    return out
+
+
 def as_v2(data: dict, file: str | Path) -> tuple[dict, list[str]]:
     """(a v2 copy of a v1 or v2 shot object, warnings). A v1 shot keeps its meaning: output frame i shows its
     pose i (a `frames` count with two poses puts them at frames 0 and frames - 1, the loader interpolating)."""
@@ -54,7 +67,7 @@ def as_v2(data: dict, file: str | Path) -> tuple[dict, list[str]]:
     if fmt == FORMAT_V2:
         out = copy.deepcopy(data)
         out.setdefault("key_frames", [0])
-        return out, []
+        return _one_per_key(out), []
     if fmt != FORMAT_V1:
         raise ShotError(file, "format", f"{fmt!r} is neither {FORMAT_V1!r} nor {FORMAT_V2!r}",
                         "start the shot with `inbetween new`, or fix the format field")
@@ -72,7 +85,7 @@ def as_v2(data: dict, file: str | Path) -> tuple[dict, list[str]]:
             warnings.append("the v1 poses' t were not evenly spaced: as v2, output frame i still shows pose i")
     out["poses"] = [{"frame": f, "joints": copy.deepcopy(p.get("joints"))} for f, p in zip(at, poses)]
     out["key_frames"] = [0, at[-1]] if at else [0, 0]
-    return out, warnings
+    return _one_per_key(out), warnings
 
 
 def key_poses(data: dict, file: str | Path) -> tuple[np.ndarray, np.ndarray]:
