@@ -1,4 +1,4 @@
-"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit, worker. It parses, calls, prints.
+"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit, worker, new, motion. It parses, calls, prints.
 
 The work is done by assets/run/, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line
@@ -82,6 +82,23 @@ def _parser() -> argparse.ArgumentParser:
     ed.add_argument("shot_dir")
     ed.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (0: any free port)")
     ed.add_argument("--no-browser", action="store_true", help="do not open the default browser")
+    n = sub.add_parser("new", help="start a shot from drawings, or from an AnimatedDrawings character")
+    n.add_argument("shot_dir")
+    n.add_argument("images", nargs="*", help="one drawing per keyframe")
+    n.add_argument("--skeleton", default="humanoid", help="humanoid, quadruped or a skeleton JSON file")
+    n.add_argument("--key-frames", default=None, help="output frame of each keyframe, e.g. 0,8,20 (default 0,8,16,...)")
+    n.add_argument("--animated-drawings", default=None, metavar="CHAR_CFG.yaml",
+                   help="AnimatedDrawings' character folder's char_cfg.yaml (texture.png, mask.png beside it)")
+    motion_flags = lambda q: (q.add_argument("--bvh", default=None, help="a BVH motion clip"),  # noqa: E731
+                              q.add_argument("--retarget", default=None, help="AnimatedDrawings' retarget config"),
+                              q.add_argument("--bvh-frames", default=None, metavar="START:END:STEP",
+                                             help="a Python slice of the clip's frames (default: all, at most 30 fps)"))
+    motion_flags(n)
+    mo = sub.add_parser("motion", help="drive a shot's skeleton by a BVH clip or by points tracked in a video")
+    mo.add_argument("shot_dir")
+    motion_flags(mo)
+    mo.add_argument("--video", default=None, help="a video whose points drive the skeleton")
+    mo.add_argument("--points", default=None, help='POINTS.json: {"joint name": [x, y], ...} in the first frame')
     w = sub.add_parser("worker", help="a farm worker: runs the steps of `batch --executor celery` (docs/production.md)")
     w.add_argument("--queue", action="append", choices=["cpu", "gpu"],
                    help="queue to serve, repeatable (default cpu); gpu: the RIFE steps, with INBETWEEN_DEVICE=cuda")
@@ -254,8 +271,41 @@ def _worker(args) -> int:
     return 0
 
 
+def _new(args) -> int:
+    from . import starting
+
+    if args.animated_drawings:
+        if args.images:
+            raise ShotError(args.images[0], "IMAGE", "--animated-drawings brings its own drawing (texture.png)",
+                            "give either images or --animated-drawings")
+        starting.new_from_animated_drawings(args.shot_dir, args.animated_drawings, args.bvh, args.retarget,
+                                            args.bvh_frames)
+    else:
+        if args.bvh or args.retarget or args.bvh_frames:
+            raise ShotError(args.shot_dir, "--bvh", "a clip drives a shot that exists",
+                            "run `inbetween new` first, then `inbetween motion SHOT_DIR --bvh ... --retarget ...`")
+        starting.new_from_images(args.shot_dir, args.images, args.skeleton, args.key_frames)
+    return 0
+
+
+def _motion(args) -> int:
+    from . import starting
+
+    if bool(args.bvh) == bool(args.video):
+        raise ShotError(args.shot_dir, "--bvh/--video", "give exactly one motion source",
+                        "give --bvh CLIP.bvh --retarget RETARGET.yaml, or --video CLIP.mp4 --points POINTS.json")
+    if args.bvh:
+        starting.motion_from_bvh(args.shot_dir, args.bvh, args.retarget, args.bvh_frames)
+    else:
+        if not args.points:
+            raise ShotError(args.video, "--points", "a video needs the points to track",
+                            'give --points POINTS.json: {"joint name": [x, y], ...} in the first frame')
+        starting.motion_from_video(args.shot_dir, args.video, args.points)
+    return 0
+
+
 COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui, "edit": _edit,
-            "worker": _worker}
+            "worker": _worker, "new": _new, "motion": _motion}
 
 
 def _crash_log(trace: str) -> Path | None:

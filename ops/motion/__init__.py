@@ -1,0 +1,1 @@
+"""Motion sources for a shot: BVH clips retargeted the AnimatedDrawings way, and points tracked in a video."""

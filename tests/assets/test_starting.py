@@ -1,0 +1,185 @@
+"""`inbetween new` and `inbetween motion`: v2 shots written to the spec from drawings, an AnimatedDrawings
+character, a BVH clip and a video; key poses kept; bad input one line with exit status 2."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from assets import starting
+from assets.cli import main
+from ops.errors import ShotError
+from ops.skeleton.templates import HUMANOID
+from tests.ops.motion.test_retarget import ACTOR, RETARGET, bvh_text
+from tests.ops.motion.test_track import write_video
+from tests.ops.motion.v2_spec import check_v2
+from tests.ops.skeleton.test_placement import person_drawing
+
+SAMPLES = Path(__file__).resolve().parents[2] / "data_samples"
+QUIET = lambda line: None  # noqa: E731
+
+
+def swing(n=12):
+    """BVH rotations: the right forearm lifts, the left arm swings forward, a knee bends."""
+    return [{"RightForeArm": (0, 0, 8.0 * f), "LeftArm": (0, 6.0 * f, 0), "RightLeg": (3.0 * f, 0, 0)} for f in range(n)]
+
+
+@pytest.fixture
+def clip(tmp_path):
+    bvh, cfg = tmp_path / "clip.bvh", tmp_path / "retarget.yaml"
+    bvh.write_text(bvh_text(swing()))
+    cfg.write_text(RETARGET)
+    return bvh, cfg
+
+
+@pytest.fixture
+def character(tmp_path):
+    """An AnimatedDrawings character folder made from a generated person."""
+    img, truth, _ = person_drawing(4)
+    d = tmp_path / "char"
+    d.mkdir()
+    rgba = np.concatenate([img, np.ones_like(img[..., :1])], 2)
+    cv2.imwrite(str(d / "texture.png"), (rgba[..., [2, 1, 0, 3]] * 255).round().astype(np.uint8))
+    mask = ((img.mean(2) < 0.97) * 255).astype(np.uint8)
+    cv2.imwrite(str(d / "mask.png"), mask)
+    rows = [{"name": n, "parent": None if p < 0 else HUMANOID.joints[p], "loc": [int(round(x)), int(round(y))]}
+            for n, p, (x, y) in zip(HUMANOID.joints, HUMANOID.parents, truth)]
+    import yaml
+
+    (d / "char_cfg.yaml").write_text(yaml.safe_dump({"height": img.shape[0], "width": img.shape[1], "skeleton": rows}))
+    return d / "char_cfg.yaml", np.array([r["loc"] for r in rows], float)
+
+
+def test_two_sample_pngs_become_a_v2_shot_and_are_never_overwritten(tmp_path):
+    shot = tmp_path / "shot"
+    lines = []
+    starting.new_from_images(shot, [SAMPLES / "arm_cross" / "key0.png", SAMPLES / "arm_cross" / "key1.png"],
+                             say=lines.append)
+    data = json.loads((shot / "shot.json").read_text())
+    check_v2(data, shot)
+    assert data["key_frames"] == [0, 8] and [p["frame"] for p in data["poses"]] == [0, 8]
+    assert data["skeleton"]["joints"] == list(HUMANOID.joints)
+    assert (shot / "key0.png").read_bytes() == (SAMPLES / "arm_cross" / "key0.png").read_bytes()
+    assert lines[-1].startswith("next: inbetween edit") and any("sure" in x for x in lines)
+    before = (shot / "shot.json").read_bytes()
+    with pytest.raises(ShotError) as e:
+        starting.new_from_images(shot, [SAMPLES / "arm_cross" / "key0.png"], say=QUIET)
+    assert "already exists" in str(e.value) and (shot / "shot.json").read_bytes() == before
+
+
+def test_key_frames_are_given_or_refused_in_one_line(tmp_path):
+    img = SAMPLES / "no_occlusion" / "key0.png"
+    starting.new_from_images(tmp_path / "a", [img, img], key_frames="0,12", say=QUIET)
+    assert json.loads((tmp_path / "a" / "shot.json").read_text())["key_frames"] == [0, 12]
+    for bad in ("0,5,9", "3,9", "0,0", "x"):
+        with pytest.raises(ShotError) as e:
+            starting.new_from_images(tmp_path / "b", [img, img], key_frames=bad, say=QUIET)
+        assert e.value.field == "--key-frames"
+    assert not (tmp_path / "b").exists()  # nothing written on bad input
+
+
+def test_animated_drawings_character_driven_by_a_clip_starts_at_its_own_pose(tmp_path, character, clip):
+    cfg, locs = character
+    shot = tmp_path / "ad"
+    starting.new_from_animated_drawings(shot, cfg, clip[0], clip[1], say=QUIET)
+    data = json.loads((shot / "shot.json").read_text())
+    check_v2(data, shot)
+    assert data["keyframes"] == ["key0.png"] and data["key_frames"] == [0]
+    assert data["masks"]["foreground"] == ["key0_fg.png"]
+    assert len(data["poses"]) == 12 and [p["frame"] for p in data["poses"]] == list(range(12))
+    assert np.allclose(np.array(data["poses"][0]["joints"])[:, :2], locs, atol=0.006)
+    hand = HUMANOID.joints.index("right_hand")
+    assert np.linalg.norm(np.subtract(data["poses"][-1]["joints"][hand][:2], locs[hand])) > 5  # the clip moves it
+
+
+def test_animated_drawings_character_without_a_clip_is_its_drawing(tmp_path, character):
+    cfg, locs = character
+    starting.new_from_animated_drawings(tmp_path / "ad", cfg, say=QUIET)
+    data = json.loads((tmp_path / "ad" / "shot.json").read_text())
+    check_v2(data, tmp_path / "ad")
+    assert len(data["poses"]) == 1 and np.allclose(np.array(data["poses"][0]["joints"])[:, :2], locs)
+
+
+DOLL_RETARGET = RETARGET
+for ad, doll in [("right_shoulder", "r_shoulder"), ("left_shoulder", "l_shoulder"), ("right_elbow", "r_elbow"),
+                 ("left_elbow", "l_elbow"), ("right_hand", "r_hand"), ("left_hand", "l_hand"), ("right_hip", "r_hip"),
+                 ("left_hip", "l_hip"), ("right_knee", "r_knee"), ("left_knee", "l_knee"), ("right_foot", "r_foot"),
+                 ("left_foot", "l_foot"), ("torso", "neck"), ("neck", "head"), (" hip,", " pelvis,")]:
+    DOLL_RETARGET = DOLL_RETARGET.replace(ad, doll)
+DOLL_RETARGET = DOLL_RETARGET.replace("  head: !!python/tuple [Hips, Head]", "  head: !!python/tuple [Spine, Head]")
+DOLL_RETARGET = DOLL_RETARGET.replace("- [above, head, r_shoulder, l_shoulder]", "- [above, head, r_shoulder, l_shoulder]")
+
+
+def test_a_bvh_clip_drives_a_v1_sample_and_keeps_both_key_poses(tmp_path):
+    shot = tmp_path / "two_poses"
+    shutil.copytree(SAMPLES / "two_poses", shot)
+    old = json.loads((shot / "shot.json").read_text())
+    bvh, cfg = tmp_path / "clip.bvh", tmp_path / "doll.yaml"
+    bvh.write_text(bvh_text(swing(14)))
+    cfg.write_text(DOLL_RETARGET)
+    lines = []
+    starting.motion_from_bvh(shot, bvh, cfg, say=lines.append)
+    data = json.loads((shot / "shot.json").read_text())
+    check_v2(data, shot)
+    assert data["key_frames"] == [0, 8] and len(data["poses"]) == 9  # v1's frames = 9, the clip cut after key 1
+    assert data["poses"][0]["joints"] == old["poses"][0]["joints"]
+    assert data["poses"][8]["joints"] == old["poses"][1]["joints"]
+    assert (shot / "shot.json.bak").read_bytes() != (shot / "shot.json").read_bytes()
+    assert any("left out" in x for x in lines)
+
+
+def test_a_video_drives_a_sample_shot(tmp_path):
+    shot = tmp_path / "no_occlusion"
+    shutil.copytree(SAMPLES / "no_occlusion", shot)
+    F = 12
+    t = np.linspace(0, 0.6, F)
+    sh, el = np.array([60.0, 50.0]), np.array([60.0, 80.0])
+    hand = el + 28 * np.stack([np.sin(t), np.cos(t)], 1)  # the forearm swings out
+    video = tmp_path / "clip.mp4"
+    write_video(video, {"r_shoulder": np.repeat(sh[None], F, 0), "r_elbow": np.repeat(el[None], F, 0), "r_hand": hand})
+    points = tmp_path / "points.json"
+    points.write_text(json.dumps({"r_shoulder": sh.tolist(), "r_elbow": el.tolist(), "r_hand": hand[0].tolist()}))
+    starting.motion_from_video(shot, video, points, say=QUIET)
+    data = json.loads((shot / "shot.json").read_text())
+    check_v2(data, shot)
+    assert len(data["poses"]) == 9  # the v1 shot's two keys at frames 0 and 8 (9 poses, frames absent)
+
+
+def one_error_line(capfd, argv) -> str:
+    assert main(argv) == 2
+    err = [x for x in capfd.readouterr().err.splitlines() if x.strip()]
+    assert len(err) == 1 and err[0].startswith("error: ") and "fix:" in err[0], err
+    return err[0]
+
+
+def test_bad_inputs_are_one_line_each(tmp_path, capfd, character):
+    shot = tmp_path / "s"
+    shutil.copytree(SAMPLES / "no_occlusion", shot)
+    bvh = tmp_path / "clip.bvh"
+    bvh.write_text(bvh_text(swing(3), actor=[a for a in ACTOR if a[0] != "RightHand"]))
+    cfg = tmp_path / "ad.yaml"
+    cfg.write_text(RETARGET)
+    assert "'RightHand'" in one_error_line(capfd, ["motion", str(shot), "--bvh", str(bvh), "--retarget", str(cfg)])
+    bvh.write_text(bvh_text(swing(3)))
+    assert "lacks" in one_error_line(capfd, ["motion", str(shot), "--bvh", str(bvh), "--retarget", str(cfg)])
+    blank = tmp_path / "blank.png"
+    cv2.imwrite(str(blank), np.full((64, 64, 3), 240, np.uint8))
+    assert "blank" in one_error_line(capfd, ["new", str(tmp_path / "n"), str(blank)])
+    noise = tmp_path / "noise.png"
+    cv2.imwrite(str(noise), np.random.default_rng(0).integers(0, 255, (64, 64, 3)).astype(np.uint8))
+    assert "not a drawing" in one_error_line(capfd, ["new", str(tmp_path / "n"), str(noise)])
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"\x00not a video" * 50)
+    pts = tmp_path / "p.json"
+    pts.write_text(json.dumps({"r_hand": [10, 10]}))
+    assert "decoded" in one_error_line(capfd, ["motion", str(shot), "--video", str(junk), "--points", str(pts)])
+    video = tmp_path / "v.mp4"
+    write_video(video, {"r_hand": np.full((9, 2), 40.0)})
+    pts.write_text(json.dumps({"r_hand": [999, 10]}))
+    assert "outside" in one_error_line(capfd, ["motion", str(shot), "--video", str(video), "--points", str(pts)])
+    assert "exactly one" in one_error_line(capfd, ["motion", str(shot)])
+    assert json.loads((shot / "shot.json").read_text())["format"] == "inbetween-shot/1"  # untouched throughout
