@@ -23,6 +23,7 @@ from pathlib import Path
 
 from ops.errors import ShotError
 from ops.settings import OCCLUSION_PREDICTORS, Settings
+from ops.shotio.frames import DEFAULT_EXPORTS, EXPORTS
 
 EXIT_BAD_INPUT = 2
 EXIT_FAILED = 1
@@ -34,6 +35,17 @@ def _settings(args) -> Settings:
                     occlusion=getattr(args, "occlusion", Settings().occlusion))
 
 
+def _exports(text: str) -> tuple[str, ...]:
+    """--export's value: 'all' or a comma-separated subset of EXPORTS."""
+    if text == "all":
+        return EXPORTS
+    got = tuple(dict.fromkeys(t.strip() for t in text.split(",") if t.strip()))
+    bad = [t for t in got if t not in EXPORTS]
+    if bad:
+        raise argparse.ArgumentTypeError(f"unknown export {bad[0]!r}: use some of {','.join(EXPORTS)} or all")
+    return got
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="inbetween", description="Skeleton-driven inbetweening of bitmap drawings.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -42,6 +54,13 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--occlusion", choices=OCCLUSION_PREDICTORS, default=Settings().occlusion,
                        help="predict occlusion masks from the skeleton alone, the skeleton's shaped by the drawing "
                             "(hybrid), or read them off the drawing (a small network, the skeleton as a guide)")
+
+    def output_flags(p):
+        p.add_argument("--export", type=_exports, default=DEFAULT_EXPORTS, metavar="LIST",
+                       help=f"what OUT gets besides frames/*.png, comma-separated: {','.join(EXPORTS)} or all "
+                            f"(default {','.join(DEFAULT_EXPORTS)}): previews over white, an Open Cel Animation "
+                            "folder with the keys marked, a ProRes 4444 video with alpha")
+        p.add_argument("--fps", type=float, default=12.0, help="frames per second of the videos and the OCA document")
 
     def method_flags(p):
         p.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
@@ -53,6 +72,7 @@ def _parser() -> argparse.ArgumentParser:
     p = sub.add_parser("run", help="in-between one shot")
     p.add_argument("shot_dir")
     p.add_argument("--out", required=True)
+    output_flags(p)
     method_flags(p)
     b = sub.add_parser("batch", help="every shot under a root, in parallel")
     b.add_argument("shots_root")
@@ -60,6 +80,7 @@ def _parser() -> argparse.ArgumentParser:
     b.add_argument("--workers", type=int, default=2, choices=range(1, 65), metavar="{1..64}")
     b.add_argument("--executor", choices=["in_process", "celery"], default="in_process",
                    help="celery: every step on `inbetween worker` processes (docs/production.md)")
+    output_flags(b)
     method_flags(b)
     s = sub.add_parser("status", help="which stages of a shot the next run executes, and why")
     s.add_argument("shot_dir")
@@ -147,7 +168,8 @@ def _run(args) -> int:
 
     with board.follow():
         try:
-            report = run_shot(args.shot_dir, args.out, _settings(args), on_wait=waiting, verbose=args.verbose)
+            report = run_shot(args.shot_dir, args.out, _settings(args), on_wait=waiting, verbose=args.verbose,
+                              exports=args.export, fps=args.fps)
         except Exception as e:
             for partition in list(board.lines):
                 board.finish(partition, name, None, "bad input" if isinstance(e, ShotError) else "failed")
@@ -206,7 +228,7 @@ def _batch(args) -> int:
     t0 = time.perf_counter()
     with board.follow():
         reports, errors = batch(root, args.out, args.workers, _settings(args), verbose=args.verbose, on_done=done,
-                                executor=args.executor)
+                                executor=args.executor, exports=args.export, fps=args.fps)
     print(table([rows[n] for n in sorted(rows)]))
     for err in errors:
         _say(f"error: {err}")

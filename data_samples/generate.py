@@ -3,8 +3,8 @@
 Usage: python data_samples/generate.py [--out data_samples] [--only NAME ...]
 
 Each character is a skeleton whose bones carry a body part (capsule, ellipse, tapered limb, skirt...) painted
-back to front by depth (z, larger = farther). Every shot directory follows /work/shared/SHOT_FORMAT.md
-("inbetween-shot/1") and carries the ground truth used by evaluation: gt/0000.png ... (one per output time),
+back to front by depth (z, larger = farther). Every shot directory follows docs/shot-format.md
+("inbetween-shot/1"; the sequences and one-drawing shots of sequences.py "inbetween-shot/2") and carries the ground truth used by evaluation: gt/0000.png ... (one per output time),
 gt_fg/key{k}.png (coverage), gt_occ/ (occlusion masks; see data_samples/README.md for which file means what).
 
 Deterministic: every random choice comes from numpy generators seeded per shot and per bone, and the drawing
@@ -27,6 +27,7 @@ from data_samples.generator.model import Character, Part, make_texture, scaled  
 from data_samples.generator.occlusion import Occlusion, occlusion_pairs, occlusions, t_junctions  # noqa: E402
 from data_samples.generator.order import draw_order  # noqa: E402
 from data_samples.generator.poses import forward, interpolate_pose, quantize  # noqa: E402
+from data_samples.generator.sequences import SEQUENCES, write_sequence  # noqa: E402
 from data_samples.generator.shots import SHOTS, ShotSpec  # noqa: E402
 from data_samples.generator.write import (  # noqa: E402
     FRAMES,
@@ -48,9 +49,12 @@ def main(argv: list[str] | None = None) -> None:
     """Command line: python data_samples/generate.py [--out DIR] [--only NAME ...]."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parent)
-    ap.add_argument("--only", nargs="*", choices=list(SHOTS), default=None)
+    ap.add_argument("--only", nargs="*", choices=[*SHOTS, *SEQUENCES], default=None)
     args = ap.parse_args(argv)
-    for d in generate(args.out, args.only):
+    v1 = None if args.only is None else [n for n in args.only if n in SHOTS]
+    v2 = list(SEQUENCES) if args.only is None else [n for n in args.only if n in SEQUENCES]
+    written = generate(args.out, v1) if v1 is None or v1 else []
+    for d in [*written, *(write_sequence(SEQUENCES[n](), args.out) for n in v2)]:
         data = json.loads((d / "shot.json").read_text())
         print(f"{d}: t_junctions per key {[len(t) for t in data['t_junctions']]}")
     sheet = contact_sheet(args.out)

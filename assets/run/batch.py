@@ -1,7 +1,6 @@
 """`batch`: every shot of a root, each in a fresh worker process, a worker that dies being one failed shot."""
 from __future__ import annotations
 
-import sys  # noqa: F401
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -10,6 +9,7 @@ from pathlib import Path
 
 from ops.errors import ShotError
 from ops.settings import Settings
+from ops.shotio.frames import DEFAULT_EXPORTS
 from ops.shotio.load import check_batch, load_shot
 
 from ..home import ensure_home
@@ -20,8 +20,9 @@ from .logs import warnings_to_log
 from .planning import register
 
 
-def _batch_worker(shot_dir: str, out_dir: str, settings: Settings,
-                  verbose: bool = False, executor: str = "in_process") -> tuple[str, dict | None, ShotFailure | None]:
+def _batch_worker(shot_dir: str, out_dir: str, settings: Settings, verbose: bool = False, executor: str = "in_process",
+                  exports: tuple[str, ...] = DEFAULT_EXPORTS, fps: float = 12.0
+                  ) -> tuple[str, dict | None, ShotFailure | None]:
     import torch
 
     if not verbose:
@@ -29,7 +30,8 @@ def _batch_worker(shot_dir: str, out_dir: str, settings: Settings,
     torch.set_num_threads(1)  # two shots share two cores
     name = Path(shot_dir).name
     try:
-        return shot_dir, run_shot(shot_dir, out_dir, settings, verbose=verbose, executor=executor), None
+        return shot_dir, run_shot(shot_dir, out_dir, settings, verbose=verbose, executor=executor, exports=exports,
+                                  fps=fps), None
     except ShotError as e:
         return shot_dir, None, ShotFailure(str(e), name, True)
     except (StageFailed, HomeDamaged) as e:
@@ -54,7 +56,8 @@ class _LeavingContext(mp_context.SpawnContext):
 
 def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Settings | None = None,
           verbose: bool = False, on_done: Callable[[str, dict | None, ShotFailure | None], None] | None = None,
-          executor: str = "in_process") -> tuple[dict, list[str]]:
+          executor: str = "in_process", exports: tuple[str, ...] = DEFAULT_EXPORTS, fps: float = 12.0
+          ) -> tuple[dict, list[str]]:
     """Every shot directory under root, `workers` at a time; returns (reports by shot name, errors).
 
     Each error is a ShotFailure (a str naming the shot's failure in one line). on_done(shot name, report,
@@ -85,7 +88,7 @@ def batch(root: str | Path, out_dir: str | Path, workers: int = 2, settings: Set
     with ProcessPoolExecutor(max_workers=max(1, workers), mp_context=_LeavingContext(),
                              max_tasks_per_child=1) as pool:
         futures = {pool.submit(_batch_worker, str(d), str(Path(out_dir) / d.name), settings, verbose,
-                               executor): d
+                               executor, exports, fps): d
                    for d in shots}
         for f in as_completed(futures):
             try:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ops.errors import ShotError
 from ops.settings import Settings
+from ops.shotio.frames import DEFAULT_EXPORTS
 from ops.shotio.load import load_shot
 from ops.shotio.versions import source_versions
 from ops.types import Shot
@@ -73,10 +74,12 @@ def stage_timings(events) -> dict[str, dict]:
 
 
 def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | None = None, *,
-             on_wait: Callable[[], None] | None = None, verbose: bool = False, executor: str = "in_process") -> dict:
+             on_wait: Callable[[], None] | None = None, verbose: bool = False, executor: str = "in_process",
+             exports: tuple[str, ...] = DEFAULT_EXPORTS, fps: float = 12.0) -> dict:
     """Run one shot end to end; returns the report (also written to OUT_DIR/report.json).
 
     executor: "in_process" (this process runs the stages) or "celery" (farm workers do; this process waits).
+    exports: what OUT_DIR gets besides the PNG frames (ops.shotio.frames.EXPORTS), at `fps` frames per second.
     """
     from ops.shotio.frames import write_outputs
 
@@ -102,7 +105,7 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     if segments:  # the first segment's, where a two-key (v1) shot always had it
         report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames")}
     report["seconds_total"] = round(time.perf_counter() - start, 3)
-    write_outputs(Path(out_dir), frames.frames, report)
+    write_outputs(Path(out_dir), frames.frames, report, exports, fps)
     return report
 
 

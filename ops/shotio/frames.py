@@ -1,7 +1,7 @@
 """Output writers: the in-between frames and a preview video.
 
-Frames follow SHOT_FORMAT.md: OUT_DIR/frames/0000.png ... one 8-bit straight-
-alpha RGBA PNG per output time (optionally OUT_DIR/frames_exr/0000.exr in
+Frames follow docs/shot-format.md: OUT_DIR/frames/0000.png ... one 8-bit straight-
+alpha RGBA PNG per output frame (optionally OUT_DIR/frames_exr/0000.exr in
 half float). Every file is written atomically (temp file + rename), so a
 crashed run never leaves a truncated frame behind.
 """
@@ -68,22 +68,48 @@ def write_preview_video(path: str | Path, frames: np.ndarray, fps: float = 8) ->
     return path
 
 
-def write_outputs(out_dir: Path, frames: np.ndarray, report: dict) -> None:
-    """OUT_DIR/frames/*.png, preview.gif and report.json (SHOT_FORMAT.md); frames (T, H, W, 4) straight alpha.
+EXPORTS = ("gif", "mp4", "oca", "mov")  # besides the PNG frames (always): what write_outputs can write
+DEFAULT_EXPORTS = ("gif", "oca")  # cheap (a preview; the OCA folder is hard links); the videos on request
+
+
+def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tuple[str, ...] = ("gif",),
+                  fps: float = 12.0) -> None:
+    """OUT_DIR/frames/*.png, report.json and the asked exports (docs/shot-format.md); frames (T, H, W, 4)
+    straight alpha, one per output frame (frame i = OUT_DIR/frames/000i.png). Exports: preview.gif and
+    preview.mp4 (over white), OUT_DIR/oca/<shot>.oca (Open Cel Animation, keys marked) and alpha.mov (ProRes
+    4444 with alpha); report["key_frames"] marks the keys, report["partition"] names the OCA document.
 
     When OUT_DIR already holds exactly these frames (report.json names the same `frames_version` and every
-    PNG is there), they are not written again; frames left over from a longer earlier run are removed.
+    file is there), they are not written again; frames left over from a longer earlier run are removed.
     """
+    from ops.shotio.exports import write_alpha_video, write_oca
+
+    unknown = set(exports) - set(EXPORTS)
+    if unknown:
+        raise ValueError(f"unknown exports {sorted(unknown)}: use some of {EXPORTS}")
     out_dir.mkdir(parents=True, exist_ok=True)
+    name = str(report.get("partition") or out_dir.name)
     pngs = [out_dir / "frames" / f"{i:04d}.png" for i in range(len(frames))]
+    files = {"gif": out_dir / "preview.gif", "mp4": out_dir / "preview.mp4", "oca": out_dir / "oca" / f"{name}.oca",
+             "mov": out_dir / "alpha.mov"}
     try:
         previous = json.loads((out_dir / "report.json").read_text()).get("frames_version")
     except (OSError, ValueError):
         previous = None
     same = previous is not None and previous == report.get("frames_version")
-    if not (same and all(p.is_file() for p in pngs) and (out_dir / "preview.gif").is_file()):
+    if not (same and all(p.is_file() for p in pngs)):
         write_frames(out_dir, frames)
-        write_preview_video(out_dir / "preview.gif", frames)
+        same = False
+    for kind in exports:
+        if same and files[kind].is_file():
+            continue
+        if kind in ("gif", "mp4"):
+            write_preview_video(files[kind], frames, fps)
+        elif kind == "oca":
+            keys = tuple(report.get("key_frames") or (0, len(frames) - 1))
+            write_oca(out_dir / "oca", name, pngs, keys, frames.shape[1:3], fps)
+        else:
+            write_alpha_video(files[kind], frames, fps)
     for extra in (out_dir / "frames").glob("[0-9][0-9][0-9][0-9].png"):
         if int(extra.stem) >= len(frames):
             extra.unlink()
