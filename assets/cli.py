@@ -98,7 +98,8 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
     occlusion_flag(e)
-    sub.add_parser("ui", help="open the Dagster UI on this project's instance")
+    u = sub.add_parser("ui", help="open the Dagster UI on this project's instance")
+    u.add_argument("--port", type=int, default=3000, help="port on 127.0.0.1")
     ed = sub.add_parser("edit", help="annotate a shot in the browser; saving reruns it incrementally")
     ed.add_argument("shot_dir")
     ed.add_argument("--port", type=int, default=8765, help="port on 127.0.0.1 (0: any free port)")
@@ -247,9 +248,31 @@ def _status(args) -> int:
                           "stages": {n: {"state": s.state, "causes": s.causes} for n, s in p.statuses.items()}},
                          indent=2))
     else:
-        for name, st in p.statuses.items():
-            print(f"{name:28s} {st.state:8s} {'; '.join(st.causes)}")
+        shot = p.shot
+        for title, group in _status_groups(shot, p.statuses):
+            print(title)
+            for name, st in group:
+                print(f"  {name:30s} {st.state:8s} {'; '.join(st.causes)}")
     return 0
+
+
+def _status_groups(shot, statuses: dict) -> list[tuple[str, list]]:
+    """The statuses under one heading per key (its lane), per segment (its sides and blending) and the shot."""
+    groups: dict[str, list] = {}
+    for name, st in statuses.items():
+        head = name.split("/")[0]
+        if head.startswith("key"):
+            title = f"key {head[3:]} ({shot.keyframes[int(head[3:])].rsplit('/', 1)[-1]}, frame "\
+                    f"{shot.key_frames[int(head[3:])]})"
+        elif head.startswith("seg"):
+            keys = shot.segment_keys(int(head[3:]))
+            frames = shot.segment_frames(int(head[3:]))
+            title = (f"segment {head[3:]} (keys {' -> '.join(map(str, keys))}, frames {frames[0]}-{frames[-1]})"
+                     if len(keys) > 1 else f"the drawing along its motion (frames {frames[0]}-{frames[-1]})")
+        else:
+            title = "shot"
+        groups.setdefault(title, []).append((name, st))
+    return list(groups.items())
 
 
 def _masks(args) -> int:
@@ -271,7 +294,10 @@ def _ui(args) -> int:
 
     ensure_home()
     root = Path(__file__).resolve().parent.parent
-    os.execvp("dagster", ["dagster", "dev", "-h", "127.0.0.1", "-w", str(root / "workspace.yaml")])
+    # this interpreter's own Dagster, whatever PATH says (`.venv/bin/inbetween ui` without the venv activated)
+    argv = [sys.executable, "-m", "dagster", "dev", "-h", "127.0.0.1", "-p", str(args.port),
+            "-w", str(root / "workspace.yaml")]
+    os.execv(sys.executable, argv)
     return 0
 
 

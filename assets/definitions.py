@@ -12,7 +12,6 @@ docs/production.md).
 from __future__ import annotations
 
 import logging
-import os
 from importlib.util import find_spec
 from pathlib import Path
 
@@ -31,6 +30,7 @@ from .evaluation import evaluation_assets
 from .geometry import lane_assets, side_assets
 from .graph import EVAL_STAGES, segment_keys, union_sources
 from .home import home, shots_root
+from .resource_config import resource_config, resource_overrides
 from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets
 
 # the sources this process defines its stages from (assets/run/ compares it with the files on disk)
@@ -43,8 +43,8 @@ def build_resources(settings: Settings | None = None) -> dict:
         "io_manager": StageStore(root=str(h / "storage")),
         "shots": ShotsResource(shots_root=str(shots_root()), registry=str(h / "shots.json")),
         "settings": PipelineSettings(**(settings or Settings()).as_dict()),
-        "rife": RESOURCE_TYPES["rife"](device=os.environ.get("INBETWEEN_DEVICE", "cpu")),
-        "inpainter": RESOURCE_TYPES["inpainter"](),
+        # configured from the environment (assets/resource_config.py); every stage records what it used
+        **{key: kind(**resource_overrides().get(key, {})) for key, kind in RESOURCE_TYPES.items()},
     }
 
 
@@ -52,13 +52,16 @@ def resources_config(settings: Settings | None = None) -> dict:
     """Run config that pins a run's resources to this process's home, shots and settings.
 
     A farm run's steps build their resources on other hosts: this config travels with the run, so they
-    write where the process that planned the run will read, with the settings it planned for. Every field
+    write where the process that planned the run will read, with the settings and the models it planned for. Every field
     is given: a resource configured in the run config keeps none of its values from the Definitions.
     """
     h = home()
+    models = {key: {"config": {f: v for f, v in resource_config(kind(**resource_overrides().get(key, {}))).items()
+                               if v is not None}}
+              for key, kind in RESOURCE_TYPES.items()}  # the RIFE weights and the inpainter it planned with
     return {"io_manager": {"config": {"root": str(h / "storage")}},
             "shots": {"config": {"shots_root": str(shots_root()), "registry": str(h / "shots.json")}},
-            "settings": {"config": (settings or Settings()).as_dict()}}
+            "settings": {"config": (settings or Settings()).as_dict()}, **models}
 
 
 def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:

@@ -36,6 +36,7 @@ from . import progress
 from .codeversion import code_record, code_version
 from .graph import shot_graph, union_graph, union_sources
 from .provenance import differences, parent_versions, provenance
+from .resource_config import resource_config
 
 PARTITIONS = dg.DynamicPartitionsDefinition(name="shots")
 
@@ -173,14 +174,15 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
     progress.emit(env.partition, name, "start")
     start = time.perf_counter()
     version, recorded = env.store.provenance(name, env.partition)
-    cached = version is not None and not differences(recorded, parents, settings, spec.code)
+    resources = {r: resource_config(env.resource(r)) for r in spec.resources}
+    cached = version is not None and not differences(recorded, parents, settings, spec.code, resources)
     record = None
     if cached:  # identical inputs and intact output: nothing to compute, nothing to write
         result = StageResult(None, {"warnings": (recorded or {}).get("warnings", [])})
     else:
         result = spec.compute(env)
         version = content_hash(result.value)
-        record = {**provenance(parents, env.settings.read, spec.code),
+        record = {**provenance(parents, env.settings.read, spec.code, resources),
                   "warnings": list(result.metadata.get("warnings", []))}
     seconds = time.perf_counter() - start
     preview_md = None

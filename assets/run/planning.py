@@ -24,37 +24,56 @@ from ..codeversion import ROOT, project_fingerprint
 from ..graph import EVAL_STAGES, ShotGraph, shot_graph
 from ..home import home, instance_id
 from ..provenance import StageStatus, resolve, to_run
+from ..resource_config import resource_config, resource_overrides
 from .logs import quiet_dagster_warnings
 
 
 def code_records() -> dict[str, dict[str, str]]:
     """Code record of every stage. Cached in INBETWEEN_HOME keyed by a hash of the project's sources, so the
-    planner needs Dagster (to import the stage definitions) only after the code changed.
+    planner needs Dagster (to import the stage definitions) only after the code changed."""
+    return _definition_facts()["records"]
+
+
+def resource_defaults() -> dict[str, dict]:
+    """{resource key: {field: default}} of the resources stages declare (cached with the code records: the
+    defaults are code)."""
+    return _definition_facts()["resources"]
+
+
+def _definition_facts() -> dict:
+    """{"records": code records, "resources": resource defaults}, from the cache or the definitions.
 
     A process that imported the definitions before the sources changed on disk (a long-lived server)
-    holds the old functions: it asks a fresh interpreter for the records of the code as it is now.
+    holds the old functions: it asks a fresh interpreter for the facts of the code as it is now.
     """
     cache = home() / "code_records.json"
     fingerprint = project_fingerprint()
     try:
         data = json.loads(cache.read_text())
-        if data.get("fingerprint") == fingerprint:
-            return data["records"]
+        if data.get("fingerprint") == fingerprint and "resources" in data:
+            return data
     except (OSError, ValueError):
         pass
     loaded = sys.modules.get("assets.definitions")
     if loaded is not None and loaded.LOADED_FINGERPRINT != fingerprint:
-        out = subprocess.run([sys.executable, "-c", "import json; from assets.run.planning import _import_code_records; "
-                              "print(json.dumps(_import_code_records()))"],
+        out = subprocess.run([sys.executable, "-c", "import json; from assets.run.planning import _import_facts; "
+                              "print(json.dumps(_import_facts()))"],
                              capture_output=True, text=True, check=True, cwd=ROOT)
-        records = json.loads(out.stdout.strip().splitlines()[-1])
+        facts = json.loads(out.stdout.strip().splitlines()[-1])
     else:
-        records = _import_code_records()
+        facts = _import_facts()
+    data = {"fingerprint": fingerprint, **facts}
     cache.parent.mkdir(parents=True, exist_ok=True)
     tmp = cache.with_suffix(f".tmp{os.getpid()}")
-    tmp.write_text(json.dumps({"fingerprint": fingerprint, "records": records}))
+    tmp.write_text(json.dumps(data))
     os.replace(tmp, cache)
-    return records
+    return data
+
+
+def _import_facts() -> dict:
+    from ..stage import RESOURCE_TYPES
+
+    return {"records": _import_code_records(), "resources": {k: resource_config(t()) for k, t in RESOURCE_TYPES.items()}}
 
 
 def _import_code_records() -> dict[str, dict[str, str]]:
@@ -63,6 +82,12 @@ def _import_code_records() -> dict[str, dict[str, str]]:
     from ..stage import STAGE_SPECS
 
     return {name: spec.code for name, spec in STAGE_SPECS.items()}
+
+
+def current_resources() -> dict[str, dict]:
+    """The configuration each resource of a run made now would have: its defaults and INBETWEEN_* overrides."""
+    over = resource_overrides()
+    return {k: {**v, **over.get(k, {})} for k, v in resource_defaults().items()}
 
 
 @dataclass
@@ -107,7 +132,8 @@ def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[s
     partition = register(shot.root)
     sources = source_versions(shot)
     st = store()
-    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages, graph)
+    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages, graph,
+                       current_resources())
     try:
         ui = json.loads(_ui_record_path(partition).read_text())
     except (OSError, ValueError):

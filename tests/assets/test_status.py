@@ -74,3 +74,31 @@ def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, m
     assert {"key0/template", "key1/template", "inbetween_frames"} <= stale and "key0/masks" not in stale
     assert stale == set(STAGES) - {"key0/masks", "key0/refined_masks", "key1/masks", "key1/refined_masks"}
     assert executed(runs.run_shot(small_shot, out)) == stale
+
+
+def _directly_stale(shot) -> dict[str, list[str]]:
+    """Stages stale for a reason of their own (not only upstream), with those reasons."""
+    out = {}
+    for n, s in runs.status(shot).statuses.items():
+        own = [c for c in s.causes if not c.startswith("upstream")]
+        if own:
+            out[n] = own
+    return out
+
+
+def test_a_resource_change_makes_exactly_its_users_stale(home, small_shot, tmp_path, monkeypatch):
+    """Every field of every resource is in the provenance of the stages that use it, and of no other."""
+    runs.run_shot(small_shot, tmp_path / "out")
+    users = {"rife": {"seg0/rife_matrix"},
+             "inpainter": {"seg0/key0/textured_template", "seg0/key1/textured_template"}}
+    changes = [("INBETWEEN_RIFE_BATCH", "4", "rife", "batch"), ("INBETWEEN_RIFE_WEIGHTS", "/elsewhere.pkl", "rife",
+                                                                  "weights_path"),
+               ("INBETWEEN_DEVICE", "cuda", "rife", "device"), ("INBETWEEN_INPAINTER", "ns", "inpainter", "method"),
+               ("INBETWEEN_INPAINT_RADIUS", "9", "inpainter", "radius")]
+    for var, value, key, field in changes:
+        monkeypatch.setenv(var, value)
+        direct = _directly_stale(small_shot)
+        assert set(direct) == users[key], (var, direct)
+        assert all(any(c.startswith(f"resource {key} changed ({field} ") for c in cs) for cs in direct.values())
+        monkeypatch.delenv(var)
+    assert not_fresh(small_shot) == set()

@@ -8,6 +8,7 @@ test_fuzz_cli.py.
 """
 from __future__ import annotations
 
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -27,7 +28,9 @@ pytestmark = pytest.mark.slow  # 300 cases: under a minute, but the fast tier ke
 SECONDS_PER_CASE = 10.0  # far above a real load (~20 ms): only a hang or a count without bound reaches it
 
 
-@settings(max_examples=300, deadline=None, database=None, print_blob=True,
+# derandomized where CI runs it (CI is set by .ci/run): the same 300 cases on every machine, so a red CI is the
+# code's, never the draw's; a developer's run keeps drawing new cases
+@settings(max_examples=300, deadline=None, database=None, print_blob=True, derandomize=bool(os.environ.get("CI")),
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(mutate=shot_mutation())
 def test_load_shot_accepts_or_gives_one_line(mutate):
