@@ -18,10 +18,29 @@ from ops.blending.quality import (
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
+from . import progress
 from .stage import StageEnv, StageResult, stage_asset
 
 if TYPE_CHECKING:  # pandas is imported by the stages that build tables, not with the Definitions
     import pandas as pd
+
+
+class _CountedRife:
+    """The RIFE network, reporting each batch of blends as a `progress` event of rife_matrix: the longest stage
+    tells a front end (the editor's rerun panel) how far it is. `bound` is the most blends it can take: the
+    alpha-1/2 cell of every time, then at most depth - 1 more cells of the path's bisection per time."""
+
+    def __init__(self, rife, partition: str, bound: int):
+        self._rife, self._partition, self.bound, self.done = rife, partition, bound, 0
+
+    def midpoint_tensors(self, a0, a1, *args, **kwargs):
+        out = self._rife.midpoint_tensors(a0, a1, *args, **kwargs)
+        self.done += len(a0)
+        progress.emit(self._partition, "rife_matrix", "progress", done=self.done, bound=self.bound)
+        return out
+
+    def __getattr__(self, name):
+        return getattr(self._rife, name)
 
 
 def _rife_matrix(env: StageEnv) -> StageResult:
@@ -35,8 +54,8 @@ def _rife_matrix(env: StageEnv) -> StageResult:
     seq1: DeformedSequence = env.read("key1/deformed_frames")
     s = env.settings
     _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(s.alpha_depth))
-    matrix = path_matrix(seq0, seq1, q, weight, env.resource("rife").load(), s.alpha_depth, s.epsilon, s.blend,
-                         env.resource("rife").batch)
+    rife = _CountedRife(env.resource("rife").load(), env.partition, len(seq0.times) * s.alpha_depth)
+    matrix = path_matrix(seq0, seq1, q, weight, rife, s.alpha_depth, s.epsilon, s.blend, env.resource("rife").batch)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
     meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
             "cells_computed": int(matrix.computed.sum()), "device": env.resource("rife").device}
