@@ -20,7 +20,7 @@ from ops.shotio.load import load_shot
 from ops.skeleton.templates import HUMANOID
 from ops.warning_subject import about
 
-from .conftest import call_json
+from .conftest import ARTIFACTS, call_json
 from .test_api import _blank_paper_point
 from .test_browser import drag, screen, until
 
@@ -95,6 +95,8 @@ def test_stage_warnings_show_at_what_they_name_with_their_fix(serve, small_shot,
     for i in range(3):  # every bubble inside its pane
         box, pane = bubbles.nth(i).bounding_box(), page.locator(".keypane[data-k='1']").bounding_box()
         assert pane["x"] <= box["x"] and box["x"] + box["width"] <= pane["x"] + pane["width"] + 1
+    ARTIFACTS.mkdir(exist_ok=True)
+    page.screenshot(path=str(ARTIFACTS / "test_stage_warnings_shown.png"))
     page.click("#overlays input[data-overlay='warnings']")  # and they can be hidden
     assert page.locator(".bubble.warning").count() == 0
 

@@ -246,7 +246,8 @@ export class KeyView {
         ctx.lineWidth = 2.5; ctx.strokeStyle = WARN_COLOUR; ctx.setLineDash(w.stale ? [3, 3] : []); ctx.stroke();
         ctx.setLineDash([]);
         placed.push(this._bubble(sx, sy, `warning${w.stale ? ' stale' : ''}`,
-          [['what', w.problem], ['fix', w.fix ? `fix: ${w.fix}` : ''], ['stage', `${w.stage}${w.stale ? ' · before your last change' : ''}`]],
+          [['subject', subjectLabel(w)], ['what', w.problem], ['fix', w.fix ? `fix: ${w.fix}` : ''],
+            ['from', `${w.stage}${w.stale ? ' · before your last change' : ''}`]],
           { stage: w.stage, kind: w.kind || '', subject: subject || '', at: `${at[0].toFixed(1)},${at[1].toFixed(1)}` }));
       }
       this.notes.replaceChildren(...notes.map((w) => {
@@ -272,18 +273,21 @@ export class KeyView {
         placed.push(this._bubble(sx, sy, 'error', [['what', err.message]], { field: err.field }));
       }
     }
-    // one under the other where they would overlap (the bubbles are centred on their point's height)
-    const sides = { left: [], right: [] };
-    for (const b of placed) sides[b.classList.contains('left') ? 'left' : 'right'].push(b);
-    for (const list of Object.values(sides)) {
-      list.sort((a, b) => parseFloat(a.style.top) - parseFloat(b.style.top));
-      let bottom = -Infinity;
-      for (const b of list) {
-        const h = b.offsetHeight, top = parseFloat(b.style.top) - h / 2;
-        const y = Math.max(top, bottom + 4);
-        b.style.top = `${y + h / 2}px`;
-        bottom = y + h;
+    // one under the other where they would overlap, in the order of their points from the top
+    placed.sort((a, b) => parseFloat(a.style.top) - parseFloat(b.style.top));
+    const taken = [];
+    for (const b of placed) {
+      for (let moved = true; moved;) {
+        moved = false;
+        const r = b.getBoundingClientRect();
+        for (const t of taken) {
+          if (r.left < t.right && t.left < r.right && r.top < t.bottom + 3 && t.top < r.bottom + 3) {
+            b.style.top = `${parseFloat(b.style.top) + (t.bottom + 4 - r.top)}px`;
+            moved = true;
+          }
+        }
       }
+      taken.push(b.getBoundingClientRect());
     }
   }
 
@@ -456,6 +460,13 @@ export class KeyView {
     this.view.zoomAt(Math.pow(1.0015, -e.deltaY), sx, sy);
     this.draw();
   }
+}
+
+/** What a warning is about, as its bubble names it: "joint r_hand", "occlusion region 0", "T-junction". */
+function subjectLabel(w) {
+  if (!w.kind) return '';
+  if (w.names && w.names.length) return `${w.kind} ${w.names.join(' / ')}`;
+  return w.index !== null && w.index !== undefined ? `${w.kind} ${w.index}` : w.kind;
 }
 
 function union(a, b) {

@@ -529,6 +529,7 @@ class App {
     try {
       this.plan = await getJSON('/api/plan');
       this.stages.setPlan(this.plan);
+      this.redraw();  // warnings of stale stages are drawn dashed
     } catch (e) {
       if (e instanceof ApiError && e.status === 400) this.showError(e.message, e.field);
     }
