@@ -242,3 +242,47 @@ def test_a_shot_without_skeleton_opens_and_a_skeleton_is_made_and_saved(serve, s
     shot = load_shot(small_shot)  # a valid shot.json
     assert list(shot.skeleton.joints) == names and saved["skeleton"]["parents"] == parents
     assert [p["t"] for p in saved["poses"]] == [0, 1]
+
+
+SKELETON_JS = """async () => {
+  const S = await import('/static/js/skeleton.js');
+  const out = {};
+  // format v2: three keys at frames 0, 8, 20 and one pose between
+  const shot = {format: 'inbetween-shot/2', keyframes: ['a.png', 'b.png', 'c.png'], key_frames: [0, 8, 20]};
+  S.ensureSkeleton(shot);
+  out.keyPoses = S.keyPoseIndices(shot);
+  const root = S.addJoint(shot, 0, 10, 10, -1, 'root');
+  shot.poses.splice(2, 0, {frame: 14, joints: [[30, 10, 0]]});
+  shot.poses[1].joints[0] = [20, 10, 0];
+  shot.poses[3].joints[0] = [40, 10, 0];
+  const hand = S.addJoint(shot, 2, 45, 12, root);  // placed on key 2 at an offset (5, 2) from the root
+  out.hand = shot.poses.map((p) => p.joints[hand]);
+  try { S.addJoint(shot, 0, 1, 1, -1); } catch (e) { out.secondRoot = e instanceof S.SkeletonError; }
+  const tip = S.addJoint(shot, 0, 20, 20, hand, 'tip');
+  try { S.reparent(shot, hand, tip); } catch (e) { out.loop = e.message; }
+  S.deleteJoint(shot, hand);
+  out.afterDelete = [shot.skeleton.joints, shot.skeleton.parents, shot.poses.map((p) => p.joints.length)];
+  S.copyPose(shot, 0, 2);
+  out.copied = JSON.stringify(shot.poses[3].joints) === JSON.stringify(shot.poses[0].joints);
+  const tpl = {joints: ['a', 'b'], parents: [-1, 0], positions: [[0, 0], [1, 0.5]]};
+  out.replaced = S.applyTemplate(shot, tpl, 1, [100, 50, 0, 150]);  // a box dragged from bottom right to top left
+  out.afterTemplate = shot.poses.map((p) => [p.frame, p.joints]);
+  out.placedOnlyKey2 = !S.applyTemplate(shot, tpl, 2, [0, 0, 10, 10]) && shot.poses[2].joints[1][0] === 10
+    && shot.poses[0].joints[1][0] === 100;
+  return out;
+}"""
+
+
+def test_skeleton_editing_keeps_every_pose_in_step_and_assumes_no_two_keys(serve, small_shot, open_page):
+    page = open_page(serve(small_shot).url)
+    out = page.evaluate(SKELETON_JS)
+    assert out["keyPoses"] == [0, 1, 2]
+    # the new joint keeps key 2's offset from its parent in every pose
+    assert out["hand"] == [[15, 12, 0], [25, 12, 0], [35, 12, 0], [45, 12, 0]]
+    assert out["secondRoot"] is True and "loop" in out["loop"]
+    assert out["afterDelete"] == [["root", "tip"], [-1, 0], [2, 2, 2, 2]]  # the tip now hangs from the root
+    assert out["copied"] is True
+    assert out["replaced"] is True
+    # a new skeleton: the pose between the keys goes, every key pose is the box's (normalized corner order)
+    assert out["afterTemplate"] == [[f, [[0, 50, 0], [100, 100, 0]]] for f in (0, 8, 20)]
+    assert out["placedOnlyKey2"] is True
