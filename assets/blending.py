@@ -19,6 +19,7 @@ from ops.blending.quality import (
 from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
+from . import progress
 from .graph import side
 from .stage import StageEnv, StageResult, stage_asset
 
@@ -32,11 +33,29 @@ def _sides(env: StageEnv, s: int) -> tuple[DeformedSequence, DeformedSequence]:
     return env.read(side(s, a, "deformed_frames")), env.read(side(s, b, "deformed_frames"))
 
 
+class _CountedRife:
+    """The RIFE network, reporting each batch of blends as a `progress` event of its stage: the longest stage
+    tells a front end (the editor's rerun panel) how far it is. `bound` is the most blends it can take: the
+    alpha-1/2 cell of every time, then at most depth - 1 more cells of the path's bisection per time."""
+
+    def __init__(self, rife, partition: str, stage: str, bound: int):
+        self._rife, self._partition, self._stage, self.bound, self.done = rife, partition, stage, bound, 0
+
+    def midpoint_tensors(self, a0, a1, *args, **kwargs):
+        out = self._rife.midpoint_tensors(a0, a1, *args, **kwargs)
+        self.done += len(a0)
+        progress.emit(self._partition, self._stage, "progress", done=self.done, bound=self.bound)
+        return out
+
+    def __getattr__(self, name):
+        return getattr(self._rife, name)
+
+
 def _rife_matrix(s: int):
     def compute(env: StageEnv) -> StageResult:
+        """I(alpha, t): RIFE blends of the segment's two deformed sequences on a dyadic alpha grid."""
         return _matrix(env, s)
 
-    compute.__doc__ = _matrix.__doc__
     return compute
 
 
@@ -50,8 +69,9 @@ def _matrix(env: StageEnv, s: int) -> StageResult:
     seq0, seq1 = _sides(env, s)
     st = env.settings
     _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(st.alpha_depth))
-    matrix = path_matrix(seq0, seq1, q, weight, env.resource("rife").load(), st.alpha_depth, st.epsilon, st.blend,
-                         env.resource("rife").batch)
+    rife = _CountedRife(env.resource("rife").load(), env.partition, f"seg{s}/rife_matrix",
+                        len(seq0.times) * st.alpha_depth)
+    matrix = path_matrix(seq0, seq1, q, weight, rife, st.alpha_depth, st.epsilon, st.blend, env.resource("rife").batch)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
     meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
             "cells_computed": int(matrix.computed.sum()), "device": env.resource("rife").device}

@@ -4,10 +4,13 @@
    with the template deformed into it (bounded warm-started solve + render at display size + HTTP, raw RGBA
    as the page asks), over 100 drag updates (10 drags of 10 moves, each on another joint of an in-between
    pose); and the settling update sent when each drag ends;
-2. save to refreshed frames after a key1 T-junction edit: PUT /api/shot, the background rerun, and every
-   output frame fetched again, as the page does when the rerun reports done.
+2. save to refreshed frames after a key1 T-junction edit (moved by --move px, default 3): PUT /api/shot, the
+   background rerun, and every output frame fetched again, as the page does when the rerun reports done; with
+   the CPU seconds of the rerun process (and its children), which a loaded machine does not stretch, and what
+   the rerun panel said while rife_matrix ran (its progress events).
 
     python benchmarks/bench_editor.py [--shot data_samples/arm_cross] [--scale 1.0] [--home DIR] [--only repose|save]
+                                      [--move 3]
 
 The shot is copied into a temporary folder and run cold once (printed too), so its templates are cached;
 the editor is then started as `python -m editor SHOT --port 0 --no-browser` in its own process, the way
@@ -84,16 +87,36 @@ def repose_latency(url: str, shot: dict, drags: int, moves: int) -> None:
     print(f"  settling update at the end of each of the {drags} drags: {percentiles(settle)}")
 
 
-def save_to_frames(url: str, shot_dir: Path) -> None:
+def _cpu_seconds(pid: int) -> float | None:
+    """CPU seconds (user + system) of process pid and of its children it has waited for, from /proc."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return sum(int(v) for v in fields[11:15]) / os.sysconf("SC_CLK_TCK")  # utime stime cutime cstime
+
+
+def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> None:
     shot = json.loads(request(url + "/api/shot")[0])
-    shot["t_junctions"][1][0][0] += 2.0
+    shot["t_junctions"][1][0][0] += move
+    partition = json.loads(request(url + "/api/info")[0])["partition"]
     t0 = time.perf_counter()
     request(url + "/api/shot", "PUT", shot)
     t_put = time.perf_counter() - t0
+    cpu, pid, said = None, None, []
     while True:
         status = json.loads(request(url + "/api/status")[0])
         if status["state"] != "running":
             break
+        try:
+            pid = json.loads((home / "editor" / partition / "rerun.json").read_text()).get("pid")
+        except (OSError, ValueError):
+            pass
+        cpu = (_cpu_seconds(pid) if pid else None) or cpu  # the last reading before the process exits
+        p = status.get("stage_progress")
+        line = f"{status['running_stage']} {p['done']}/{p['bound']}" if p else str(status["running_stage"])
+        if not said or said[-1] != line:
+            said.append(line)
         time.sleep(0.1)
     if status["state"] != "done":
         raise SystemExit(f"the rerun failed: {status['error']}")
@@ -102,8 +125,13 @@ def save_to_frames(url: str, shot_dir: Path) -> None:
         request(url + f"/api/frames/{i}.png?v={info['version']}")
     total = time.perf_counter() - t0
     ran = {n: s["seconds"] for n, s in status["stages"].items() if not s["cached"]}
-    print(f"save -> refreshed frames after moving a key1 T-junction by 2 px: {total:.1f} s "
-          f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s)")
+    print(f"save -> refreshed frames after moving a key1 T-junction by {move:g} px: {total:.1f} s "
+          f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s; "
+          f"CPU of the rerun process >= {cpu or 0:.1f} s; load average {os.getloadavg()[0]:.1f} at the end)")
+    rife = [s for s in said if s.startswith("rife_matrix")]
+    if rife:
+        print(f"  while rife_matrix ran the panel named it with {len(rife)} different progress states: "
+              f"{rife[0]!r} first, {rife[-1]!r} last")
     print(f"  stages re-run: {len(ran)} of {len(status['stages'])}, stage seconds {sum(ran.values()):.1f}: "
           + ", ".join(f"{n} {s:.2f}" for n, s in ran.items()))
 
@@ -117,6 +145,7 @@ def main() -> None:
     ap.add_argument("--drags", type=int, default=10)
     ap.add_argument("--moves", type=int, default=10)
     ap.add_argument("--only", choices=["repose", "save"], default=None)
+    ap.add_argument("--move", type=float, default=3.0, help="px the key1 T-junction moves before the save")
     args = ap.parse_args()
     base = Path(args.home) if args.home else Path(tempfile.mkdtemp(prefix="bench_editor-"))
     shot_dir, home = base / "shots" / Path(args.shot).name, base / "home"
@@ -144,7 +173,7 @@ def main() -> None:
         if args.only in (None, "repose"):
             repose_latency(url, shot, args.drags, args.moves)
         if args.only in (None, "save"):
-            save_to_frames(url, shot_dir)
+            save_to_frames(url, shot_dir, home, args.move)
     finally:
         proc.send_signal(signal.SIGINT)
         proc.wait(30)

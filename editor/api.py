@@ -1,11 +1,13 @@
 """The JSON API under /api (README "The editor"): thin handlers over editor/state.py and the run machinery.
 
 Every error is a JSON object {"error": "<one line>", "field": "<shot.json field or null>"}: the CLI's
-ShotError message for bad input, so the page can show it next to the item the field names.
+ShotError message for bad input, so the page can show it next to the item the field names. A malformed
+request parameter is a 400 naming the route and the parameter (editor/params.py), never a 500.
 """
 from __future__ import annotations
 
 import asyncio
+import functools
 import hashlib
 import json
 from pathlib import Path
@@ -22,12 +24,16 @@ from ops.errors import ShotError
 from ops.preview import to_png_bytes
 from ops.shotio.image_io import image_size, read_image, to_rgba
 from ops.shotio.interpolate import resample_poses
-from ops.shotio.load import load_shot, parse_poses, parse_skeleton, read_shot_json
+from ops.shotio.load import MAX_FRAMES, MAX_JOINTS, load_shot, parse_poses, parse_skeleton, read_shot_json
+from ops.skeleton.templates import TEMPLATES
 
+from . import params
+from .jointcheck import check_key_joints, mask_inside
 from .layers import refined_json
 from .maskfiles import check_name, decode_mask, encode_mask
 from .repose import png_bytes
 from .shotfile import keyframe_names, referenced_files, save, validate
+from .stage_warnings import stage_warnings
 from .state import EditorState
 
 PNG = "image/png"
@@ -48,23 +54,42 @@ def _png(data: bytes | None, what: str) -> Response:
     return Response(data, media_type=PNG, headers=NO_STORE) if data is not None else _error(f"no {what} yet", 404)
 
 
+def handler(fn):
+    """An API handler: bad input (a ShotError, here or in its blocking work) becomes a 400 with the one line."""
+
+    @functools.wraps(fn)
+    async def wrapped(request: Request) -> Response:
+        try:
+            return await fn(request)
+        except ShotError as e:
+            return _error(e)
+
+    return wrapped
+
+
 async def _call(fn, *args):
-    """Run blocking work off the event loop; bad input becomes a 400 with the one-line message."""
-    try:
-        return await run_in_threadpool(fn, *args)
-    except ShotError as e:
-        return _error(e)
-
-
-def _key(request: Request) -> int:
-    k = request.path_params["k"]
-    if k not in (0, 1):
-        raise ShotError("request", "k", f"keyframe {k} does not exist", "use 0 or 1")
-    return k
+    """Run blocking work off the event loop (a ShotError propagates to `handler`)."""
+    return await run_in_threadpool(fn, *args)
 
 
 def _saved(ed: EditorState) -> dict:
     return read_shot_json(ed.shot_dir)[1]
+
+
+def _key(request: Request, ed: EditorState) -> int:
+    """Path parameter k: a keyframe of the saved shot (at least the two of format v1)."""
+    return params.path_int(request, "k", 0, max(2, len(keyframe_names(_saved(ed)))) - 1)
+
+
+def _layer(request: Request) -> tuple[str, int | None]:
+    """Path parameters layer ("foreground", or "occlusion" with its region index i)."""
+    layer = params.choice(request, "layer", request.path_params["layer"], ("foreground", "occlusion"))
+    if layer == "occlusion" and "i" not in request.path_params:
+        raise ShotError(params.where(request), "i", "an occlusion layer needs its region index",
+                        "ask for occlusion/{i}.png")
+    if layer == "foreground" and "i" in request.path_params:
+        raise ShotError(params.where(request), "i", "the foreground has no regions", "ask for foreground.png")
+    return layer, params.path_int(request, "i", 0) if layer == "occlusion" else None
 
 
 def _size(ed: EditorState) -> tuple[int, int]:
@@ -79,6 +104,7 @@ def _size(ed: EditorState) -> tuple[int, int]:
 # ---------------------------------------------------------------- the shot and its saving
 
 
+@handler
 async def info(request: Request) -> Response:
     ed = _ed(request)
 
@@ -100,17 +126,35 @@ def _etag(ed: EditorState) -> str:
     return '"' + hashlib.sha256((ed.shot_dir / "shot.json").read_bytes()).hexdigest()[:20] + '"'
 
 
+@handler
 async def get_shot(request: Request) -> Response:
     ed = _ed(request)
     return await _call(lambda: JSONResponse(_saved(ed), headers={**NO_STORE, "ETag": _etag(ed)}))
 
 
+@handler
+async def check(request: Request) -> Response:
+    """The loader's verdict on the saved shot: {"ok": true}, or {"ok": false, "error", "field"} (a shot the
+    loader refuses still opens, to be fixed)."""
+    ed = _ed(request)
+
+    def work():
+        try:
+            load_shot(ed.shot_dir)
+        except ShotError as e:
+            return JSONResponse({"ok": False, "error": str(e), "field": e.field}, headers=NO_STORE)
+        return JSONResponse({"ok": True, "error": None, "field": None}, headers=NO_STORE)
+
+    return await _call(work)
+
+
+@handler
 async def put_shot(request: Request) -> Response:
     """Validate the whole shot.json object; write it (and the staged masks it names) and queue its rerun."""
     ed = _ed(request)
     try:
         data = json.loads(await request.body())
-    except ValueError as e:
+    except (ValueError, RecursionError) as e:
         return _error(ShotError(ed.shot_dir / "shot.json", "shot.json", f"the request body is not JSON ({e})",
                                 "send the whole shot.json object"))
 
@@ -120,8 +164,16 @@ async def put_shot(request: Request) -> Response:
             if expected is not None and expected != _etag(ed):
                 return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
                               "fix: reload the page (saving would overwrite that change)", 409)
+            try:
+                before = _saved(ed)
+            except ShotError:
+                before = None  # an unreadable shot.json is replaced: every joint counts as new
+
+            def joints_on_drawing(shot, candidate, file):
+                check_key_joints(shot, candidate, file, before, ed.foregrounds.of)
+
             staged = ed.staging.snapshot()
-            validate(ed.shot_dir, data, staged, ed.scratch)
+            validate(ed.shot_dir, data, staged, ed.scratch, joints_on_drawing)
             written = save(ed.shot_dir, data, staged)
             ed.staging.discard(written, only_if=staged)
             ed.reruns.request("save")  # from here on /api/status reports this save's rerun
@@ -130,6 +182,7 @@ async def put_shot(request: Request) -> Response:
     return await _call(work)
 
 
+@handler
 async def run(request: Request) -> Response:
     """Rerun the saved shot without a change (the page's Run button)."""
     ed = _ed(request)
@@ -166,34 +219,52 @@ async def events(request: Request) -> Response:
     return StreamingResponse(stream(), media_type="text/event-stream", headers=NO_STORE)
 
 
+@handler
 async def get_plan(request: Request) -> Response:
     """Status of every stage for the saved shot: fresh, or stale / missing with the causes."""
     ed = _ed(request)
 
     def work():
         p = plan(ed.shot_dir, ed.settings)
-        return JSONResponse({"stages": {n: {"state": s.state, "causes": s.causes} for n, s in p.statuses.items()}})
+        return JSONResponse({"stages": {n: {"state": s.state, "causes": s.causes} for n, s in p.statuses.items()}},
+                            headers=NO_STORE)
 
     return await _call(work)
+
+
+@handler
+async def get_warnings(request: Request) -> Response:
+    """The stored stages' warnings, each with the subject it names and where (editor/stage_warnings.py)."""
+    ed = _ed(request)
+    return await _call(lambda: JSONResponse({"warnings": stage_warnings(ed.store, ed.partition)}, headers=NO_STORE))
+
+
+async def templates(request: Request) -> Response:
+    """The skeleton templates a skeleton can start from: {name: {"joints", "parents", "positions"}}, positions
+    (u, v) in the unit box of the box the user drags (ops/skeleton/templates.py)."""
+    return JSONResponse({name: t.to_json() for name, t in TEMPLATES.items()})
 
 
 # ---------------------------------------------------------------- images and masks
 
 
+@handler
 async def keyframe(request: Request) -> Response:
     ed = _ed(request)
 
     def work():
-        k = _key(request)
+        k = _key(request, ed)
         names = keyframe_names(_saved(ed))
-        if len(names) != 2:
-            raise ShotError(ed.shot_dir / "shot.json", "keyframes", "must list exactly two images", "fix keyframes")
+        if k >= len(names):
+            raise ShotError(ed.shot_dir / "shot.json", "keyframes", f"names no image for keyframe {k}",
+                            'write "keyframes": ["key0.png", "key1.png"]')
         img = read_image(ed.shot_dir / names[k], f"keyframes[{k}]")
         return Response(to_png_bytes(to_rgba(img)), media_type=PNG, headers=NO_STORE)
 
     return await _call(work)
 
 
+@handler
 async def get_mask(request: Request) -> Response:
     """A manual mask as 8-bit grey PNG (255 = inside): the staged upload, else the file the saved shot names."""
     ed = _ed(request)
@@ -204,16 +275,15 @@ async def get_mask(request: Request) -> Response:
         if staged is not None:
             return Response(staged, media_type=PNG, headers=NO_STORE)
         data = _saved(ed)
-        if name not in referenced_files(data) or name in keyframe_names(data):
+        check_name(name, set(keyframe_names(data)))
+        if name not in referenced_files(data):
             return _error(f"{name}: no staged upload and the saved shot.json names no such mask", 404)
-        img = read_image(ed.shot_dir / name, "masks")
-        # the masks stage's reading rule: light, and opaque where there is alpha
-        inside = img[..., 0] > 0.5 if img.shape[2] < 4 else (img[..., 0] > 0.5) & (img[..., 3] > 0.5)
-        return Response(encode_mask(inside), media_type=PNG, headers=NO_STORE)
+        return Response(encode_mask(mask_inside(ed.shot_dir / name, "masks")), media_type=PNG, headers=NO_STORE)
 
     return await _call(work)
 
 
+@handler
 async def put_mask(request: Request) -> Response:
     """Stage a mask upload (any PNG; normalized to 8-bit 0/255); a later PUT /api/shot that names it writes it."""
     ed = _ed(request)
@@ -229,12 +299,13 @@ async def put_mask(request: Request) -> Response:
     return await _call(work)
 
 
+@handler
 async def predicted(request: Request) -> Response:
     """{"regions", "source"} of keyframe k's predicted masks; the masks themselves are PNG sub-resources."""
     ed = _ed(request)
 
     def work():
-        masks, source = ed.predictions.get(ed.shot_dir, _key(request))
+        masks, source = ed.predictions.get(ed.shot_dir, _key(request, ed))
         return JSONResponse({"regions": len(masks.occlusion), "source": source, "warnings": masks.warnings})
 
     return await _call(work)
@@ -246,23 +317,26 @@ def _mask_layer(masks, layer: str, i: int | None) -> np.ndarray | None:
     return masks.occlusion[i] if i is not None and 0 <= i < len(masks.occlusion) else None
 
 
+@handler
 async def predicted_png(request: Request) -> Response:
     ed = _ed(request)
 
     def work():
-        masks, _ = ed.predictions.get(ed.shot_dir, _key(request))
-        m = _mask_layer(masks, request.path_params["layer"], request.path_params.get("i"))
+        k, (layer, i) = _key(request, ed), _layer(request)
+        masks, _ = ed.predictions.get(ed.shot_dir, k)
+        m = _mask_layer(masks, layer, i)
         return _png(encode_mask(m) if m is not None else None, "such predicted region")
 
     return await _call(work)
 
 
+@handler
 async def refined(request: Request) -> Response:
     """Keyframe k's refined masks from the store: boundaries and snapped T-junctions (pixels), or 404."""
     ed = _ed(request)
 
     def work():
-        name = f"key{_key(request)}/refined_masks"
+        name = f"key{_key(request, ed)}/refined_masks"
         version = ed.store.hash(name, ed.partition)
         if version is None:
             return _error("the refined masks have not been computed yet; save or run", 404)
@@ -271,14 +345,15 @@ async def refined(request: Request) -> Response:
     return await _call(work)
 
 
+@handler
 async def refined_png(request: Request) -> Response:
     ed = _ed(request)
 
     def work():
-        name = f"key{_key(request)}/refined_masks"
+        name, (layer, i) = f"key{_key(request, ed)}/refined_masks", _layer(request)
         if ed.store.hash(name, ed.partition) is None:
             return _png(None, "refined masks")
-        m = _mask_layer(ed.store.read(name, ed.partition), request.path_params["layer"], request.path_params.get("i"))
+        m = _mask_layer(ed.store.read(name, ed.partition), layer, i)
         return _png(encode_mask(m) if m is not None else None, "such refined region")
 
     return await _call(work)
@@ -287,56 +362,67 @@ async def refined_png(request: Request) -> Response:
 # ---------------------------------------------------------------- motion and live re-pose
 
 
+@handler
 async def motion(request: Request) -> Response:
     """Poses at times: body {"shot": shot.json object (default: the saved one), "times": [t, ...] (default:
     the output times)} -> {"times", "poses" (T, J, 3), "given_times"}; interpolated per bone like the loader."""
     ed = _ed(request)
-    body = json.loads(await request.body() or b"{}")
+    body = await params.json_body(request, default={})
+    shot = body.get("shot")
+    if shot is not None and not isinstance(shot, dict):
+        raise ShotError(params.where(request), "shot", "is not a shot.json object", "send the shot.json object, or leave shot out")
+    times = body.get("times")
+    if times is not None:
+        times = params.numbers(request, "times", times, max_len=MAX_FRAMES)
 
     def work():
-        data = body.get("shot") or _saved(ed)
+        data = shot or _saved(ed)
         file = ed.shot_dir / "shot.json"
         skeleton = parse_skeleton(data, file)
         given_t, given = parse_poses(data, file, skeleton)
         frames = data.get("frames")
-        times = body.get("times")
-        if times is None:
-            times = np.linspace(0.0, 1.0, frames) if isinstance(frames, int) and frames >= 2 else given_t
-        times = np.clip(np.asarray(times, float), 0.0, 1.0)
-        poses = resample_poses(given_t, given, times, skeleton.parents)
-        return JSONResponse({"times": times.tolist(), "poses": np.round(poses, 4).tolist(),
+        at = times
+        if at is None:
+            at = np.linspace(0.0, 1.0, frames) if isinstance(frames, int) and 2 <= frames <= MAX_FRAMES else given_t
+        at = np.clip(np.asarray(at, float), 0.0, 1.0)
+        poses = resample_poses(given_t, given, at, skeleton.parents)
+        return JSONResponse({"times": at.tolist(), "poses": np.round(poses, 4).tolist(),
                              "given_times": given_t.tolist()})
 
     return await _call(work)
 
 
+@handler
 async def repose(request: Request) -> Response:
     """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1), "settle":
     bool (false while a drag goes on: a bounded solve), "format": "png" | "rgba"} -> keyframe k's textured
     template deformed into that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers;
     the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
     ed = _ed(request)
-    body = json.loads(await request.body())
+    body = await params.json_body(request)
+    k = body.get("k", 0)
+    if not isinstance(k, int) or isinstance(k, bool) or k not in (0, 1):
+        raise ShotError(params.where(request), "k", f"{json.dumps(k)[:40]} is not a keyframe", "give k as 0 or 1")
+    t = params.number(request, "t", body.get("t", 0.5), 0.0, 1.0)
+    if "joints" not in body:
+        raise ShotError(params.where(request), "joints", "is missing", "send one [x, y, z] per joint")
+    pose = np.asarray(params.points(request, "joints", body["joints"], 3, MAX_JOINTS), float)
+    scale = float(np.clip(params.number(request, "scale", body.get("scale", 1.0)), 0.05, 1.0))
+    settle = params.boolean(request, "settle", body.get("settle", True))
+    fmt = params.choice(request, "format", body.get("format", "png"), ("png", "rgba"))
 
     def work():
-        k = int(body.get("k", 0))
-        if k not in (0, 1):
-            raise ShotError("request", "k", f"keyframe {k} does not exist", "use 0 or 1")
         reposer = ed.reposers.get(k)
         if reposer is None:
             return _error(f"seg0/key{k}/textured_template has not been computed yet; run the shot first", 409)
-        pose = np.asarray(body["joints"], float)
-        if pose.ndim != 2 or pose.shape[1] != 3 or not np.isfinite(pose).all():
-            raise ShotError("request", "joints", "must be finite [x, y, z] per joint", "send one [x, y, z] per joint")
         if len(pose) != reposer.textured.template.handle_weights.shape[1]:
             return _error("the skeleton changed since the template was built; save and rerun first", 409)
-        scale = float(np.clip(body.get("scale", 1.0), 0.05, 1.0))
-        res = reposer.update(pose, float(body.get("t", 0.5)), scale, settle=bool(body.get("settle", True)))
+        res = reposer.update(pose, t, scale, settle=settle)
         h, w = res.image.shape[:2]
         headers = {**NO_STORE, "X-Solve-Ms": f"{res.solve_ms:.1f}", "X-Render-Ms": f"{res.render_ms:.1f}",
                    "X-Iterations": str(res.iterations), "X-Cpu-Ms": f"{res.cpu_ms:.1f}", "X-Width": str(w),
                    "X-Height": str(h)}
-        if body.get("format") == "rgba":
+        if fmt == "rgba":
             return Response(res.image.tobytes(), media_type="application/octet-stream", headers=headers)
         return Response(png_bytes(res.image), media_type=PNG, headers=headers)
 
@@ -351,8 +437,9 @@ async def frames(request: Request) -> Response:
     return JSONResponse(got, headers=NO_STORE) if got else _error("no frames yet; save or run", 404)
 
 
+@handler
 async def frame_png(request: Request) -> Response:
-    i = request.path_params["i"]
+    i = params.path_int(request, "i", 0)
     return _png(await run_in_threadpool(_ed(request).results.frame_png, i), f"frame {i}")
 
 
@@ -361,8 +448,9 @@ async def matrix(request: Request) -> Response:
     return JSONResponse(got, headers=NO_STORE) if got else _error("no image matrix yet; save or run", 404)
 
 
+@handler
 async def matrix_png(request: Request) -> Response:
-    thumb = int(np.clip(int(request.query_params.get("thumb", 64)), 16, 256))
+    thumb = params.query_int(request, "thumb", 64, 16, 256)
     return _png(await run_in_threadpool(_ed(request).results.matrix_png, thumb), "image matrix")
 
 
@@ -372,36 +460,45 @@ async def previews(request: Request) -> Response:
                         headers=NO_STORE)
 
 
+@handler
 async def preview_png(request: Request) -> Response:
     ed = _ed(request)
-    stage = request.path_params["stage"].removesuffix(".png")
-    if stage not in shot_graph(2).stages:
-        return _error(f"no stage {stage!r}", 404)
+    stage = params.choice(request, "stage", request.path_params["stage"].removesuffix(".png"),
+                          tuple(shot_graph(2).stages))
     path: Path = ed.store.preview_path(stage, ed.partition)
     return _png(path.read_bytes() if path.is_file() else None, f"preview of {stage}")
+
+
+async def internal_error(request: Request, exc: Exception) -> Response:
+    """Any other failure: still one JSON line for the page (the traceback goes to the editor's terminal)."""
+    return _error(f"{params.where(request)}: the editor failed ({type(exc).__name__}: {' '.join(str(exc).split())[:200]}); "
+                  "fix: see the editor's terminal for the trace, and report it", 500)
 
 
 ROUTES = [
     Route("/api/info", info),
     Route("/api/shot", get_shot, methods=["GET"]),
     Route("/api/shot", put_shot, methods=["PUT"]),
+    Route("/api/check", check),
     Route("/api/run", run, methods=["POST"]),
     Route("/api/status", status),
     Route("/api/events", events),
     Route("/api/plan", get_plan),
-    Route("/api/keyframes/{k:int}.png", keyframe),
+    Route("/api/warnings", get_warnings),
+    Route("/api/templates", templates),
+    Route("/api/keyframes/{k}.png", keyframe),
     Route("/api/masks/{name:path}", get_mask, methods=["GET"]),
     Route("/api/masks/{name:path}", put_mask, methods=["PUT"]),
-    Route("/api/predicted/{k:int}", predicted),
-    Route("/api/predicted/{k:int}/{layer:str}.png", predicted_png),
-    Route("/api/predicted/{k:int}/{layer:str}/{i:int}.png", predicted_png),
-    Route("/api/refined/{k:int}", refined),
-    Route("/api/refined/{k:int}/{layer:str}.png", refined_png),
-    Route("/api/refined/{k:int}/{layer:str}/{i:int}.png", refined_png),
+    Route("/api/predicted/{k}", predicted),
+    Route("/api/predicted/{k}/{layer}.png", predicted_png),
+    Route("/api/predicted/{k}/{layer}/{i}.png", predicted_png),
+    Route("/api/refined/{k}", refined),
+    Route("/api/refined/{k}/{layer}.png", refined_png),
+    Route("/api/refined/{k}/{layer}/{i}.png", refined_png),
     Route("/api/motion", motion, methods=["POST"]),
     Route("/api/repose", repose, methods=["POST"]),
     Route("/api/frames", frames),
-    Route("/api/frames/{i:int}.png", frame_png),
+    Route("/api/frames/{i}.png", frame_png),
     Route("/api/matrix", matrix),
     Route("/api/matrix.png", matrix_png),
     Route("/api/previews", previews),

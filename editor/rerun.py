@@ -66,7 +66,12 @@ class Reruns:
         self.out_dir, self.home, self.cwd = self.workdir / "out", Path(home), Path(cwd)
         self.command = command or [sys.executable, "-m", "assets.cli", "run", str(self.shot_dir), "--out", str(self.out_dir)]
         self._cond = threading.Condition()
+        # running_stage: the stage started last of those still running (several run at once: two lanes, and
+        # stages computed ahead of the steps that report them); stage_progress: its {"stage", "done", "bound"}
+        # when it reports them (rife_matrix counts its blends);
+        # last_seconds: what each stage took when it last ran, across reruns (the panel's estimate)
         self._status = {"state": "idle", "stages": {}, "error": None, "seq": 0, "running_stage": None,
+                        "running_since": None, "running": {}, "stage_progress": None, "last_seconds": {},
                         "reason": None, "note": None, "started": None, "finished": None, "frames_version": None}
         self._private: dict = {}  # pid, progress, log of the current rerun
         self._version = 0
@@ -91,8 +96,8 @@ class Reruns:
         """Ask for a rerun; from this call on the status describes it (state running). Returns its number."""
         with self._cond:
             seq = self._status["seq"] + 1
-            self._status.update(state="running", stages={}, error=None, seq=seq, running_stage=None, reason=reason,
-                                note=None, started=time.time(), finished=None)
+            self._status.update(state="running", stages={}, error=None, seq=seq, running_stage=None, running_since=None,
+                                running={}, stage_progress=None, reason=reason, note=None, started=time.time(), finished=None)
             self._pending = True
             self._changed()
             self._cond.notify_all()
@@ -210,14 +215,28 @@ class Reruns:
                     continue
                 if ev.get("partition") != self.partition:
                     continue
-                if ev.get("event") == "start":
-                    self._status["running_stage"] = ev["stage"]
-                elif ev.get("event") == "done":
-                    self._status["stages"][ev["stage"]] = {"cached": bool(ev["cached"]), "seconds": ev["seconds"]}
-                    self._status["running_stage"] = None
+                self._apply(ev)
             if end:
                 self._changed()
         return offset + end
+
+    def _apply(self, ev: dict) -> None:
+        """Take one progress event of this rerun (call with the lock held)."""
+        st, stage, kind = self._status, ev.get("stage"), ev.get("event")
+        if kind == "start":
+            st["running"][stage] = ev.get("time", time.time())
+            if st["stage_progress"] and st["stage_progress"]["stage"] == stage:
+                st["stage_progress"] = None
+        elif kind == "done":
+            st["stages"][stage] = {"cached": bool(ev["cached"]), "seconds": ev["seconds"]}
+            if not ev["cached"]:
+                st["last_seconds"][stage] = ev["seconds"]
+            st["running"].pop(stage, None)
+        elif kind == "progress" and stage in st["running"]:
+            st["stage_progress"] = {"stage": stage, "done": ev.get("done"), "bound": ev.get("bound")}
+        # a stage's "done" may come while a later one runs: the panel names the one started last
+        latest = max(st["running"], key=st["running"].get, default=None)
+        st["running_stage"], st["running_since"] = latest, st["running"].get(latest)
 
     def _note_waiting(self, seq: int, log: Path) -> None:
         """Say so when the CLI waits for another run of this shot (it prints `waiting: ...`)."""
@@ -245,12 +264,13 @@ class Reruns:
             if self._status["seq"] != seq:
                 return
             if ok:
+                self._status["last_seconds"].update({n: s["seconds"] for n, s in report["stages"].items() if not s["cached"]})
                 self._status.update(state="done", error=None, frames_version=report.get("frames_version"),
                                     stages={n: {"cached": bool(s["cached"]), "seconds": s["seconds"]}
                                             for n, s in report["stages"].items()})
             else:
                 self._status.update(state="failed", error=error_line(log))
-            self._status.update(running_stage=None, finished=time.time())
+            self._status.update(running_stage=None, running_since=None, running={}, stage_progress=None, finished=time.time())
             self._changed()
             self._cond.notify_all()
 

@@ -16,7 +16,7 @@ from starlette.staticfiles import StaticFiles
 
 from ops.errors import ShotError
 
-from .api import ROUTES
+from .api import ROUTES, internal_error
 from .hosts import LocalOnly
 from .state import EditorState
 
@@ -47,7 +47,7 @@ def build_app(state: EditorState, port: int) -> LocalOnly:
         state.stop()
 
     app = Starlette(routes=[Route("/", _index), *ROUTES, Mount("/static", _Static(directory=STATIC))],
-                    lifespan=lifespan)
+                    lifespan=lifespan, exception_handlers={Exception: internal_error})
     app.state.editor = state
     return LocalOnly(app, port)
 

@@ -11,6 +11,7 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 from ops.errors import ShotError
@@ -59,19 +60,23 @@ def _link_or_copy(src, dst) -> None:
         shutil.copy2(src, dst)
 
 
-def check_key_joints(shot: Shot, data: dict, file: Path) -> None:
-    """The key poses' joints must lie on their keyframe: in the editor a joint outside is a drag gone astray."""
-    h, w = shot.size
-    for k, idx in ((0, 0), (1, len(data["poses"]) - 1)):
-        for j, (x, y, _) in enumerate(data["poses"][idx]["joints"]):
-            if not (-0.5 <= x <= w - 0.5 and -0.5 <= y <= h - 0.5):
-                raise ShotError(file, f"poses[{idx}].joints[{j}]",
-                                f"joint {shot.skeleton.joints[j]!r} at ({x:.1f}, {y:.1f}) lies outside the {w}x{h} "
-                                f"keyframe {k}", "drag it back onto the drawing")
+def key_pose_indices(data) -> list[int]:
+    """Index into data["poses"] of each keyframe's pose: v1 the first and the last pose; with `key_frames`
+    (format v2) the pose at each key frame. Keys whose pose cannot be found are left out."""
+    poses = data.get("poses") if isinstance(data, dict) else None
+    if not isinstance(poses, list) or not poses:
+        return []
+    key_frames = data.get("key_frames")
+    if not isinstance(key_frames, list):
+        return [0, len(poses) - 1] if len(poses) >= 2 else [0]
+    frames = [p.get("frame") if isinstance(p, dict) else None for p in poses]
+    return [frames.index(f) for f in key_frames if f in frames]
 
 
-def validate(shot_dir: Path, data, staged: dict[str, bytes], scratch_root: Path) -> Shot:
-    """Load the candidate shot.json `data` as the CLI would, with staged masks {relative name: PNG bytes}.
+def validate(shot_dir: Path, data, staged: dict[str, bytes], scratch_root: Path,
+             check: Callable[[Shot, dict, Path], None] | None = None) -> Shot:
+    """Load the candidate shot.json `data` as the CLI would, with staged masks {relative name: PNG bytes}, then
+    run `check(shot, data, file)` (the editor's own checks, editor/jointcheck.py) while the scratch copy exists.
 
     Raises ShotError naming the real shot.json. Nothing under shot_dir is written.
     """
@@ -95,7 +100,8 @@ def validate(shot_dir: Path, data, staged: dict[str, bytes], scratch_root: Path)
         (scratch / "shot.json").write_text(json.dumps(data))
         try:
             shot = load_shot(scratch)
-            check_key_joints(shot, data, scratch / "shot.json")
+            if check is not None:
+                check(shot, data, scratch / "shot.json")
         except ShotError as e:
             raise ShotError(_real_path(e.file, scratch, shot_dir), e.field, e.problem, e.fix) from None
         return shot

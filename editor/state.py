@@ -12,6 +12,7 @@ from ops.errors import ShotError
 from ops.settings import Settings
 from ops.shotio.load import read_shot_json
 
+from .jointcheck import Foregrounds
 from .layers import Predictions
 from .maskfiles import Staging
 from .repose import Reposers
@@ -38,6 +39,7 @@ class EditorState:
         self.reruns = Reruns(self.shot_dir, self.partition, self.workdir, home(), ROOT, rerun_command)
         self.reposers = Reposers(self.store, self.partition, self.settings.mu, self.settings.grad_tol)
         self.predictions = Predictions(self.store, self.partition, self.settings.occlusion)
+        self.foregrounds = Foregrounds(self.store, self.partition)  # the save's joint check (editor/jointcheck.py)
         self.results = Results(self.store, self.partition)
 
     def _claim(self, url: str):

@@ -23,6 +23,7 @@ from scipy import ndimage
 
 from ops.geometry.snap import snap_into
 from ops.types import MIN_BONE_PX, Skeleton, bone_frames
+from ops.warning_subject import about, inside_point
 
 SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (its outlines are DP-simplified by 1 px)
 BONE_SAMPLES = 33  # points tried along a bone when a component needs a handle
@@ -102,7 +103,8 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
         c, r = int(np.clip(round(P[i, 0]), 0, shape[1] - 1)), int(np.clip(round(P[i, 1]), 0, shape[0] - 1))
         if not inside[r, c] or not (0 <= P[i, 0] <= shape[1] - 1 and 0 <= P[i, 1] <= shape[0] - 1):
             d = float(np.linalg.norm(snapped[i] - P[i]))
-            warnings.append(f"handle '{names[i]}' was {d:.1f} px outside the drawing; moved to its nearest point")
+            warnings.append(about("handle", f"was {d:.1f} px outside the drawing; moved to its nearest point",
+                                  name=names[i], at=P[i]))
     P = np.where(moved[:, None], snapped, P)
     covered = set(labels[P[:, 1].round().astype(int), P[:, 0].round().astype(int)].tolist())
     extra_P, extra_W, extra_names = [], [], []
@@ -119,8 +121,10 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
             if depth[k] > 0 and (best is None or depth[k] > best[0]):
                 best = (depth[k], b, u[k])
         if best is None:
-            warnings.append(f"a part of the drawing ({int((labels == comp).sum())} px) that no bone crosses has no "
-                            "handle: it stays where it is drawn; fix: extend a bone over it or paint it out of the mask")
+            part = labels == comp
+            warnings.append(about("part of the drawing", f"({int(part.sum())} px) that no bone crosses has no handle: "
+                                  "it stays where it is drawn", at=inside_point(part),
+                                  fix="extend a bone over it or paint it out of the mask"))
             continue
         _, b, t = best
         p, c = skeleton.bones[b]

@@ -20,6 +20,7 @@ from ops.geometry.handles import handle_bones, place_handles
 from ops.geometry.mesh import cut_along, signed_areas, triangulate_pslg
 from ops.geometry.polygon import points_in_polygon, polygon_area
 from ops.types import RefinedMasks, Skeleton
+from ops.warning_subject import about
 
 FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this
 FLAT_AREA_PX2 = 1e-6  # a face smaller than this is flat: Triangle's output along a constraint at a hair's angle
@@ -70,10 +71,11 @@ def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], wa
         inside = points_in_polygon(c, B)
         clash = inside & (region >= 0)
         if clash.any():
-            warnings.append(f"occlusion region {r} overlaps an earlier region on {int(clash.sum())} face(s); kept the earlier")
+            warnings.append(about("occlusion region", f"overlaps an earlier region on {int(clash.sum())} face(s); "
+                                  "kept the earlier", name=r, at=B.mean(axis=0)))
         region[inside & (region < 0)] = r
         if not inside.any():
-            warnings.append(f"occlusion region {r} contains no face")
+            warnings.append(about("occlusion region", "contains no face", name=r, at=B.mean(axis=0)))
     return region
 
 
@@ -138,7 +140,8 @@ def build_template(
         if len(jn) and (jn.min() < 0 or jn.max() >= len(boundaries[r])):
             raise ValueError(f"occlusion region {r}: T-junction index outside its {len(boundaries[r])}-vertex boundary")
         if len(jn) % 2 and len(jn) == len(boundaries[r]):
-            warnings.append(f"occlusion region {r}: every boundary vertex is a T-junction, no room for a cusp; dropped one")
+            warnings.append(about("occlusion region", "every boundary vertex is a T-junction, no room for a cusp; "
+                                  "dropped one", name=r, at=boundaries[r].mean(axis=0)))
             junctions[r] = jn[:-1]
     bvert = res.loop_vertex[len(domain):]
     for r, (bv, jn) in enumerate(zip(bvert, junctions)):

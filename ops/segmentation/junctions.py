@@ -21,6 +21,7 @@ from scipy.spatial import cKDTree
 from ops.geometry.snap import snap_into
 from ops.segmentation.bones import bone_depths, bone_radii, segment_distance
 from ops.types import Skeleton
+from ops.warning_subject import about
 
 MERGE_CLICKS_PX = 4.0  # clicks this close are one junction clicked several times
 ASSOCIATE_PX = 12.0  # a click this close to a region's boundary belongs to that region as it is
@@ -40,11 +41,8 @@ def merge_clicks(points: np.ndarray, radius: float = MERGE_CLICKS_PX) -> tuple[n
     n, lab = connected_components(A, directed=False)
     counts = np.bincount(lab, minlength=n)
     merged = np.stack([np.bincount(lab, pts[:, d], n) for d in (0, 1)], axis=1) / counts[:, None]
-    warnings = [
-        f"{int(c)} T-junction clicks within {radius:g} px merged into one at ({x:.1f}, {y:.1f})"
-        for c, (x, y) in zip(counts, merged)
-        if c > 1
-    ]
+    warnings = [about("T-junction", f"{int(c)} clicks within {radius:g} px merged into one", at=(x, y))
+                for c, (x, y) in zip(counts, merged) if c > 1]
     return merged, warnings
 
 
@@ -110,21 +108,21 @@ def assign_junctions(points: np.ndarray, regions: list[np.ndarray], front_bones:
         x, y = orig
         shift = float(np.linalg.norm(q - orig))
         if moved[i] and shift > OFF_DRAWING_PX:
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) is {shift:.1f} px off the drawing; left out; "
-                            "fix: click where an outline meets another")
+            warnings.append(about("T-junction", f"is {shift:.1f} px off the drawing; left out", at=(x, y),
+                                  fix="click where an outline meets another"))
             continue
         if moved[i] and shift > 0:
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) was {shift:.1f} px outside the drawing; moved onto it")
+            warnings.append(about("T-junction", f"was {shift:.1f} px outside the drawing; moved onto it", at=(x, y)))
         c, r = int(round(q[0])), int(round(q[1]))
         dist = [boundary_distance(m)[r, c] if m.any() else np.inf for m in regions]
         owner = int(np.argmin(dist)) if regions else -1
         if owner >= 0 and dist[owner] > tol and regions[owner][r, c]:
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) lies {dist[owner]:.1f} px inside occlusion region "
-                            f"{owner}; its boundary is moved through it")
+            warnings.append(about("T-junction", f"lies {dist[owner]:.1f} px inside occlusion region {owner}; "
+                                  "its boundary is moved through it", at=(x, y)))
         elif owner >= 0 and dist[owner] > tol:
             regions[owner] = grow_to(regions[owner], q, foreground)
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) was {dist[owner]:.1f} px from every occlusion region; "
-                            f"region {owner} grown to meet it")
+            warnings.append(about("T-junction", f"was {dist[owner]:.1f} px from every occlusion region; "
+                                  f"region {owner} grown to meet it", at=(x, y)))
         elif owner < 0:
             region, front = start_region(q, foreground, pose, skeleton)
             regions.append(region)
@@ -132,7 +130,7 @@ def assign_junctions(points: np.ndarray, regions: list[np.ndarray], front_bones:
             per_region.append([])
             owner = len(regions) - 1
             b = skeleton.bones[front[0]]
-            warnings.append(f"T-junction ({x:.1f}, {y:.1f}) had no occlusion region; a region was started there "
-                            f"in front of it on bone {skeleton.joints[b[0]]}-{skeleton.joints[b[1]]}")
+            warnings.append(about("T-junction", "had no occlusion region; a region was started there in front of "
+                                  f"it on bone {skeleton.joints[b[0]]}-{skeleton.joints[b[1]]}", at=(x, y)))
         per_region[owner].append(q)
     return regions, front_bones, [np.asarray(j, np.float64).reshape(-1, 2) for j in per_region], warnings

@@ -6,6 +6,7 @@ import numpy as np
 from ops.errors import ShotError
 from ops.segmentation.bones import _bone_ends, bone_depths, segment_distance
 from ops.types import Skeleton
+from ops.warning_subject import about, inside_point
 
 
 def manual_front_bones(
@@ -47,13 +48,13 @@ def clip_manual_occlusion(
         m = m > 0.5 if m.dtype != bool else m
         outside = int((m & ~foreground).sum())
         if outside:
-            warnings.append(f"manual occlusion mask {r}: {outside} px outside the foreground clipped away")
+            warnings.append(about("manual occlusion mask", f"{outside} px outside the foreground clipped away",
+                                  name=r, at=inside_point(m & ~foreground)))
+        at = inside_point(m)
         m = m & foreground
         if not m.any():
-            warnings.append(
-                f"manual occlusion mask {r} is empty inside the foreground and was dropped; "
-                "fix: paint the region over the character"
-            )
+            warnings.append(about("manual occlusion mask", "is empty inside the foreground and was dropped", name=r,
+                                  at=at, fix="paint the region over the character"))
             continue
         kept.append(m)
     return kept, warnings

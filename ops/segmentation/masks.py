@@ -18,6 +18,7 @@ from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.settings import OCCLUSION_PREDICTORS
 from ops.types import Masks, Skeleton
+from ops.warning_subject import about
 
 NEAR_OUTSIDE_PX = 4.0  # joints this close outside the foreground are "slightly" outside
 
@@ -28,17 +29,18 @@ def pose_warnings(foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton) 
     h, w = foreground.shape
     xy = pose[:, :2]
     mids = xy[skeleton.bones].mean(axis=1)
-    names = list(skeleton.joints) + [f"bone {skeleton.joints[p]}-{skeleton.joints[c]} midpoint" for p, c in skeleton.bones]
+    subjects = [("joint", name, "lies") for name in skeleton.joints]
+    subjects += [("bone", f"{skeleton.joints[p]}-{skeleton.joints[c]}", "midpoint lies") for p, c in skeleton.bones]
     warnings = []
-    for name, (x, y) in zip(names, np.concatenate([xy, mids])):
+    for (kind, name, what), (x, y) in zip(subjects, np.concatenate([xy, mids])):
         if not (0 <= x <= w - 1 and 0 <= y <= h - 1):
-            warnings.append(f"{name} at ({x:.1f}, {y:.1f}) lies outside the image; check the pose")
+            warnings.append(about(kind, f"{what} outside the image", name=name, at=(x, y), fix="check the pose"))
             continue
         d = float(dist_out[int(round(y)), int(round(x))])
         if d == 0:
             continue
         how = "slightly" if d <= NEAR_OUTSIDE_PX else "far"
-        warnings.append(f"{name} at ({x:.1f}, {y:.1f}) lies {how} outside the foreground ({d:.1f} px)")
+        warnings.append(about(kind, f"{what} {how} outside the foreground ({d:.1f} px)", name=name, at=(x, y)))
     return warnings
 
 

@@ -30,6 +30,7 @@ from scipy import ndimage
 
 from ops.segmentation.bones import bone_depths, thick_regions
 from ops.types import Skeleton
+from ops.warning_subject import about, inside_point
 
 MIN_REGION_FRACTION = 0.002  # occlusion components smaller than this share of the foreground are noise
 
@@ -41,7 +42,7 @@ def _bone_name(skeleton: Skeleton, b: int) -> str:
 
 def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton) -> tuple[list, list[str]]:
     """Overlaps of non-adjacent bones' (B, H, W) thick regions: list of (front, back, (H, W) bool), warnings."""
-    out, ties = [], []
+    out, warnings = [], []
     adjacent = skeleton.adjacent_bones()
     nb = thick.shape[0]
     for i in range(nb):
@@ -57,16 +58,13 @@ def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton) -> 
             if not overlap.any():
                 continue
             if np.isclose(depth[i], depth[j]):
-                ties.append(f"{_bone_name(skeleton, i)} / {_bone_name(skeleton, j)} ({int(overlap.sum())} px)")
+                warnings.append(about(
+                    "bones", f"bodies overlap on {int(overlap.sum())} px but the bones have equal depth, so no "
+                    "occlusion was predicted there", name=(_bone_name(skeleton, i), _bone_name(skeleton, j)),
+                    at=inside_point(overlap), fix="give the joints different z or paint an occlusion mask"))
                 continue
             front, back = (i, j) if depth[i] < depth[j] else (j, i)
             out.append((front, back, overlap))
-    warnings = []
-    if ties:
-        warnings.append(
-            "bodies of non-adjacent bones overlap but the bones have equal depth, so no occlusion was "
-            f"predicted there: {', '.join(ties)}; fix: give the joints different z or paint an occlusion mask"
-        )
     return out, warnings
 
 

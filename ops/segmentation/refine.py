@@ -27,6 +27,7 @@ from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
 from ops.segmentation.slits import junction_slits, slit_of
 from ops.types import Masks, RefinedMasks, Skeleton
+from ops.warning_subject import about, inside_point
 
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
 SEGMENT_PX = 4.0  # boundary edge length of the deformation mesh
@@ -220,24 +221,28 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     occ, fronts, bounds, juncs = [], [], [], []
     for r, (region, front, J) in enumerate(zip(regions, front_bones, per_region)):
         if thin[r] and not len(J):
-            warnings.append(f"occlusion region {r} ({int(region.sum())} px) lies along a contact of two touching bodies: "
-                            "slit along the contact instead of a pocket")
+            warnings.append(about("occlusion region", f"({int(region.sum())} px) lies along a contact of two touching "
+                                  "bodies: slit along the contact instead of a pocket", name=r, at=inside_point(region)))
             continue
         n_comp = ndimage.label(region, structure=np.ones((3, 3), bool))[1]
+        at = inside_point(region)
         if n_comp > 1 and len(J):
-            warnings.append(f"occlusion region {r} has {n_comp} pieces; only the largest is refined and kept")
+            warnings.append(about("occlusion region", f"has {n_comp} pieces; only the largest is refined and kept",
+                                  name=r, at=at))
         elif n_comp > 1:
-            warnings.append(f"occlusion region {r} has {n_comp} pieces; its boundary describes the largest")
+            warnings.append(about("occlusion region", f"has {n_comp} pieces; its boundary describes the largest",
+                                  name=r, at=at))
         if region.sum() < 3:
-            warnings.append(f"occlusion region {r} is smaller than 3 px and was dropped")
+            warnings.append(about("occlusion region", "is smaller than 3 px and was dropped", name=r, at=at))
             continue
         try:
             refined, B, jidx = refine_region(region, J, fg, warnings)
         except ValueError as err:  # a degenerate region: keep it as given rather than lose the shot
-            warnings.append(f"occlusion region {r} not refined ({err}); its {len(J)} T-junction(s) ignored")
+            warnings.append(about("occlusion region", f"not refined ({err}); its {len(J)} T-junction(s) ignored",
+                                  name=r, at=at))
             refined, B, jidx = region & fg, mask_boundary(region), np.zeros(0, np.int64)
         if not refined.any() or len(B) < 3:
-            warnings.append(f"occlusion region {r} vanished during refinement and was dropped")
+            warnings.append(about("occlusion region", "vanished during refinement and was dropped", name=r, at=at))
             continue
         occ.append(refined)
         fronts.append(front)

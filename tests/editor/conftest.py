@@ -176,6 +176,28 @@ def browser():
 
 
 @pytest.fixture
+def open_page(browser, request):
+    """open_page(url, height=820) -> the editor page at url, loaded (the in-process server of `serve` will do: no
+    pipeline run needed); a screenshot of each is kept in tests/editor/artifacts/<test>[-n].png."""
+    pages, errors = [], []
+
+    def start(url: str, height: int = 820, width: int = 1500):
+        pg = browser.new_page(viewport={"width": width, "height": height})
+        pg.on("pageerror", lambda e: errors.append(str(e)))
+        pg.goto(url + "/")
+        pg.wait_for_selector("body[data-ready='1']", timeout=60_000)
+        pages.append(pg)
+        return pg
+
+    yield start
+    ARTIFACTS.mkdir(exist_ok=True)
+    for i, pg in enumerate(pages):
+        pg.screenshot(path=str(ARTIFACTS / f"{request.node.name}{f'-{i}' if i else ''}.png"))
+        pg.close()
+    assert not errors, f"errors in the page: {errors}"
+
+
+@pytest.fixture
 def page(browser, editor_process, request):
     """The editor page, loaded; a screenshot of it is kept in tests/editor/artifacts/<test>.png."""
     url, _, _ = editor_process

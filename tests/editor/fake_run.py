@@ -1,6 +1,9 @@
 """A stand-in for `inbetween run` in the rerun tests: same progress events, report and error line, no pipeline.
 
-usage: fake_run.py PARTITION OUT_DIR [--sleep S] [--fail] [--stages a,b,c]
+usage: fake_run.py PARTITION OUT_DIR [--sleep S] [--fail] [--stages a,b,c] [--ahead]
+
+--ahead plays the work-ahead's order (assets/ahead.py): the last stage starts before the others' steps report
+"done", and reports its progress (done of at most bound blends) as rife_matrix does.
 """
 from __future__ import annotations
 
@@ -21,19 +24,36 @@ def main() -> int:
     p.add_argument("--sleep", type=float, default=0.05)
     p.add_argument("--fail", action="store_true")
     p.add_argument("--stages", default=STAGES)
+    p.add_argument("--ahead", action="store_true")
     args = p.parse_args()
     progress = os.environ["INBETWEEN_PROGRESS"]
     stages = args.stages.split(",")
-    for i, stage in enumerate(stages):
+
+    def emit(stage: str, event: str, **fields) -> None:
         with open(progress, "a") as f:
-            f.write(json.dumps({"partition": args.partition, "stage": stage, "event": "start"}) + "\n")
+            f.write(json.dumps({"time": time.time(), "partition": args.partition, "stage": stage, "event": event,
+                                **fields}) + "\n")
+
+    if args.ahead:
+        *early, last = stages
+        for stage in early:
+            emit(stage, "start")
+        emit(last, "start")  # computed ahead: it starts before the earlier steps report
+        for i, stage in enumerate(early):
+            time.sleep(args.sleep)
+            emit(stage, "done", cached=i == 0, seconds=0.01 * i)
+        for n in range(1, 4):
+            time.sleep(args.sleep)
+            emit(last, "progress", done=n, bound=4)
+        time.sleep(args.sleep)
+        emit(last, "done", cached=False, seconds=0.01 * len(early))
+    for i, stage in enumerate(stages if not args.ahead else []):
+        emit(stage, "start")
         time.sleep(args.sleep)
         if args.fail and i == len(stages) - 1:
             print(f"error: {args.partition}: {stage}: fake failure (full log: nowhere)", file=sys.stderr)
             return 1
-        with open(progress, "a") as f:
-            f.write(json.dumps({"partition": args.partition, "stage": stage, "event": "done", "cached": i == 0,
-                                "seconds": 0.01 * i}) + "\n")
+        emit(stage, "done", cached=i == 0, seconds=0.01 * i)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     report = {"frames": 3, "frames_version": "fake", "stages": {s: {"executed": True, "cached": i == 0, "seconds": 0.01 * i}

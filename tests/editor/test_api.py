@@ -1,6 +1,7 @@
 """The editor's JSON API on a real server (uvicorn in a thread), reruns played by fake_run.py."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 
@@ -214,3 +215,122 @@ def test_a_second_editor_of_the_same_shot_is_refused(serve, small_shot):
     serve(small_shot)
     with pytest.raises(ShotError, match="already open in an editor at test"):
         EditorState(small_shot)
+
+
+def _blank_paper_point(shot_dir, k: int, away: float = 20.0) -> list[float]:
+    """A point of keyframe k's image at least `away` px from the predicted foreground (blank paper)."""
+    from scipy import ndimage
+
+    from ops.segmentation.foreground import segment_foreground
+    from ops.shotio.image_io import read_image, to_rgba
+    from ops.shotio.load import load_shot
+
+    shot = load_shot(shot_dir)
+    fg = segment_foreground(to_rgba(read_image(shot.keyframes[k])), shot.key_pose(k), shot.skeleton).mask
+    d = ndimage.distance_transform_edt(~fg)
+    ys, xs = np.nonzero(d[8:-8, 8:-8] > away)
+    return [float(xs[len(xs) // 2] + 8), float(ys[len(ys) // 2] + 8)]
+
+
+def test_joint_moved_onto_blank_paper_is_refused_at_the_joint_and_nothing_is_written(serve, small_shot):
+    s = serve(small_shot)
+    before = (small_shot / "shot.json").read_bytes()
+    shot = call_json(s.url + "/api/shot")[1]
+    x, y = _blank_paper_point(small_shot, 1)
+    shot["poses"][-1]["joints"][5][:2] = [x, y]  # key1's r_hand, inside the image but off the character
+    status, err = call_json(s.url + "/api/shot", "PUT", shot)
+    assert status == 400 and err["field"] == "poses[8].joints[5]", err
+    assert "'r_hand'" in err["error"] and "blank paper" in err["error"] and "fix: drag it onto the drawing" in err["error"]
+    assert (small_shot / "shot.json").read_bytes() == before and not (small_shot / "shot.json.bak").exists()
+    assert call_json(s.url + "/api/status")[1]["seq"] == 0  # no rerun
+    # a joint moved along the drawing is fine, and so is one the saved shot already had off it (the CLI warns)
+    shot = json.loads(before)
+    shot["poses"][-1]["joints"][5][0] += 1.0
+    assert call_json(s.url + "/api/shot", "PUT", shot)[0] == 200
+
+
+def test_a_joint_the_saved_shot_already_had_off_the_drawing_does_not_block_a_save(serve, small_shot):
+    data = json.loads((small_shot / "shot.json").read_text())
+    x, y = _blank_paper_point(small_shot, 0)
+    data["poses"][0]["joints"][8][:2] = [x, y]  # written by hand (or by a tool) before the editor opened
+    (small_shot / "shot.json").write_text(json.dumps(data))
+    s = serve(small_shot)
+    data["t_junctions"][1][0][0] += 1.0
+    assert call_json(s.url + "/api/shot", "PUT", data)[0] == 200
+    data["poses"][0]["joints"][8][0] += 2.0  # but dragged further over the paper: refused
+    status, err = call_json(s.url + "/api/shot", "PUT", data)
+    assert status == 400 and err["field"] == "poses[0].joints[8]"
+
+
+def test_the_joint_check_uses_the_stored_foreground_of_the_same_drawing():
+    """Foregrounds picks the stored key{k}/masks foreground when it was made from this very drawing."""
+    from editor.jointcheck import Foregrounds
+    from ops.shotio.load import load_shot
+    from ops.shotio.versions import source_versions
+
+    shot_dir = SAMPLES / "arm_cross"
+    shot = load_shot(shot_dir)
+    drawing = source_versions(shot)["key1/drawing"]
+    everything = np.ones(shot.size, bool)
+
+    class FakeStore:
+        parents = {"key1/drawing": drawing, "key1/pose": "some other pose"}
+
+        def provenance(self, name, partition):
+            return ("v1", {"parents": self.parents}) if name == "key1/masks" else (None, None)
+
+        def read(self, name, partition):
+            return type("Masks", (), {"foreground": everything})()
+
+    store = FakeStore()
+    assert Foregrounds(store, "p").of(shot, 1) is everything
+    store.parents = {"key1/drawing": "another drawing"}
+    predicted = Foregrounds(store, "p").of(shot, 1)
+    assert predicted.dtype == bool and 0.02 < predicted.mean() < 0.6  # the prediction, not the stored mask
+
+
+def test_warnings_come_with_their_subject_keyframe_and_fix(serve, small_shot):
+    from ops.warning_subject import about
+
+    s = serve(small_shot)
+    tj = about("T-junction", "was 33.4 px from every occlusion region; region 0 grown to meet it", at=(84.5, 95.7))
+    ties = about("bones", "bodies overlap on 120 px but the bones have equal depth, so no occlusion was predicted "
+                 "there", name=("r_hip-r_knee", "l_hip-l_knee"), at=(96, 150), fix="give the joints different z or "
+                 "paint an occlusion mask")
+    whole = "merged 2 duplicate input vertex(es); fix: none needed"
+
+    @dataclasses.dataclass
+    class Output:
+        x: np.ndarray
+
+    store, out = s.state.store, Output(np.zeros(1))
+    store.write("key1/masks", s.state.partition, out, provenance={"warnings": [ties]})
+    store.write("key1/refined_masks", s.state.partition, out, provenance={"warnings": [ties, tj]})
+    store.write("key0/template", s.state.partition, out, provenance={"warnings": [whole]})
+    status, got = call_json(s.url + "/api/warnings")
+    assert status == 200
+    w = got["warnings"]
+    assert [(x["stage"], x["k"], x["kind"]) for x in w] == [
+        ("key0/template", 0, None), ("key1/masks", 1, "bones"), ("key1/refined_masks", 1, "T-junction")]
+    assert w[0]["problem"] == "merged 2 duplicate input vertex(es)" and w[0]["fix"] == "none needed"
+    assert w[1]["names"] == ["r_hip-r_knee", "l_hip-l_knee"] and w[1]["at"] == [96.0, 150.0]
+    assert w[1]["fix"] == "give the joints different z or paint an occlusion mask"
+    assert w[2]["at"] == [84.5, 95.7] and w[2]["fix"] is None and w[2]["text"] == tj
+
+
+def test_check_gives_the_loaders_verdict_on_a_shot_it_refuses(serve, small_shot):
+    s = serve(small_shot)
+    assert call_json(s.url + "/api/check")[1] == {"ok": True, "error": None, "field": None}
+    (small_shot / "shot.json").write_text(json.dumps({"format": "inbetween-shot/1", "keyframes": ["key0.png", "key1.png"]}))
+    got = call_json(s.url + "/api/check")[1]
+    assert got["ok"] is False and got["field"] == "skeleton" and "fix: " in got["error"]
+    assert call_json(s.url + "/api/info")[1]["size"] == [192, 192]  # the page can still show the drawings
+    assert call(s.url + "/api/keyframes/1.png")[0] == 200
+
+
+def test_templates_route(serve, small_shot):
+    s = serve(small_shot)
+    status, got = call_json(s.url + "/api/templates")
+    assert status == 200 and set(got) >= {"humanoid", "quadruped"}
+    h = got["humanoid"]
+    assert len(h["joints"]) == len(h["parents"]) == len(h["positions"]) == 16 and h["parents"].count(-1) == 1

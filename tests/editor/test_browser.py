@@ -126,7 +126,7 @@ def test_joint_dragged_off_the_canvas_shows_the_error_and_writes_nothing(page, e
     bar = page.locator("#error-bar")
     bar.wait_for(state="visible")
     assert "poses[0].joints[5]" in bar.inner_text() and "outside" in bar.inner_text()
-    bubble = page.locator(".keypane[data-k='0'] .bubble")
+    bubble = page.locator(".keypane[data-k='0'] .bubble.error")
     assert bubble.is_visible() and bubble.get_attribute("data-field") == "poses[0].joints[5]"
     assert "'r_hand'" in bubble.inner_text()
     assert (shot_dir / "shot.json").read_bytes() == before

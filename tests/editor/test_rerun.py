@@ -55,3 +55,25 @@ def test_error_line_is_the_cli_one_liner(tmp_path):
     assert error_line(log) == "/s/shot.json: poses[2].t: bad; fix: sort"
     log.write_text("Traceback...\nKeyError: 'x'\n")
     assert error_line(log) == "KeyError: 'x'"
+
+
+def test_the_running_stage_stays_named_while_earlier_steps_report_and_shows_its_progress(tmp_path):
+    """Work-ahead order: rife_matrix (here the last stage) starts while the steps before it still report "done";
+    the status names it the whole time, with its progress, and remembers what each stage took."""
+    reruns = make(tmp_path, "--ahead", "--sleep", "0.3")
+    reruns.start()
+    reruns.request("save")
+    seen = []
+    while (st := reruns.snapshot()[1])["state"] == "running":
+        seen.append((st["running_stage"], st["stage_progress"], dict(st["stages"])))
+        time.sleep(0.03)
+    assert st["state"] == "done"
+    last = "inbetween_frames"
+    # from the first "done" of an earlier step until the last stage's own "done": it is named
+    after = [(r, p) for r, p, done in seen if done and last not in done]
+    assert after and all(r == last for r, _ in after), after
+    progress = [p for _, p in after if p]
+    assert progress and progress[-1] == {"stage": last, "done": 3, "bound": 4}
+    assert all(p["done"] <= p["bound"] for p in progress)
+    assert st["running_stage"] is None and st["stage_progress"] is None
+    assert st["last_seconds"][last] == 0.03 and "key1/refined_masks" not in st["last_seconds"]  # cached: not timed

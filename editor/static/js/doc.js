@@ -1,5 +1,7 @@
 // The edited shot: shot.json as an object, the mask layers of each keyframe, and undo/redo over both.
 
+import { keyPoseIndices } from './skeleton.js';
+
 const clone = (x) => JSON.parse(JSON.stringify(x));
 
 export class Doc {
@@ -13,8 +15,17 @@ export class Doc {
     this.hadMasks = 'masks' in shot;
   }
 
-  keyPoseIndex(k) { return k === 0 ? 0 : this.shot.poses.length - 1; }
-  keyPose(k) { return this.shot.poses[this.keyPoseIndex(k)].joints; }
+  /** Index into shot.poses of keyframe k's pose (-1: the shot has none yet). */
+  keyPoseIndex(k) { const i = keyPoseIndices(this.shot)[k]; return i === undefined ? -1 : i; }
+  /** Keyframe k's joints [[x, y, z], ...] ([] while the shot has no skeleton or pose). */
+  keyPose(k) {
+    const pose = this.shot.poses?.[this.keyPoseIndex(k)];
+    return Array.isArray(pose?.joints) ? pose.joints : [];
+  }
+  /** The joint names ([] while there is no skeleton). */
+  jointNames() { return Array.isArray(this.shot.skeleton?.joints) ? this.shot.skeleton.joints : []; }
+  /** The parents (aligned with jointNames). */
+  parents() { return Array.isArray(this.shot.skeleton?.parents) ? this.shot.skeleton.parents : []; }
   layer(id) { return this.layers.get(id); }
 
   addLayer(layer) { this.layers.set(layer.id, layer); return layer.id; }
@@ -97,11 +108,10 @@ export class Doc {
     const eq = (a, b) => JSON.stringify(a) === JSON.stringify(b);
     const changed = new Set();
     const skeleton = !eq(saved.skeleton, now.skeleton);
-    const lastOf = (s) => s.poses[s.poses.length - 1].joints;
+    const pose = (s, k) => s.poses?.[keyPoseIndices(s)[k]]?.joints ?? null;
     for (const k of [0, 1]) {
       if (!eq(saved.t_junctions?.[k], now.t_junctions?.[k])) changed.add(`key${k}/t_junctions`);
-      const pose = (s) => (k === 0 ? s.poses[0].joints : lastOf(s));
-      if (skeleton || !eq(pose(saved), pose(now))) changed.add(`key${k}/pose`);
+      if (skeleton || !eq(pose(saved, k), pose(now, k))) changed.add(`key${k}/pose`);
       const masksOf = (s) => [s.masks?.foreground?.[k] ?? null, s.masks?.occlusion?.[k] ?? []];
       const pixels = [this.structure[k].fg, ...this.structure[k].occ].some((id) => id && this.layer(id).dirty);
       if (pixels || !eq(masksOf(saved), masksOf(now)) || !eq(saved.keyframes?.[k], now.keyframes?.[k])) changed.add(`key${k}/drawing`);

@@ -1,5 +1,6 @@
-// One keyframe in the annotation view: the drawing, its overlays, and the pointer tools
-// (move joints and T-junctions, add T-junctions, paint and erase masks, zoom and pan).
+// One keyframe in the annotation view: the drawing, its overlays, the stages' warnings at what they name, and
+// the pointer tools (move joints and T-junctions, add T-junctions, build the skeleton, place a template, paint
+// and erase masks, zoom and pan).
 
 import { FOREGROUND_COLOUR, regionColour } from './masks.js';
 import { Viewport, fitCanvas } from './viewport.js';
@@ -7,6 +8,8 @@ import { Viewport, fitCanvas } from './viewport.js';
 const HIT_PX = 9;          // screen pixels within which a joint or a T-junction is picked
 const JOINT_R = 5;
 const TJ_R = 6;
+const DRAG_PX = 4;         // a press that moves less than this is a click
+const WARN_COLOUR = '#f0a030';
 const Z_STEP = 0.1;        // depth change per wheel notch (Shift: x10)
 const round1 = (v) => Math.round(v * 10) / 10;
 
@@ -24,6 +27,7 @@ export class KeyView {
     this.app = app;
     this.canvas = pane.querySelector('canvas');
     this.bubbles = pane.querySelector('.bubbles');
+    this.notes = pane.querySelector('.notes');
     this.ctx = this.canvas.getContext('2d');
     this.view = new Viewport();
     this.fitted = false;
@@ -83,8 +87,9 @@ export class KeyView {
     if (ref && show.has('boundaries')) this._boundaries(ref.json);
     if (show.has('skeleton')) this._skeleton();
     if (show.has('tjunctions')) this._tjunctions();
+    this._gesture();
     this._brushCursor();
-    this._errorBubble();
+    this._bubbles();
   }
 
   _poly(points, closed) {
@@ -111,7 +116,9 @@ export class KeyView {
   _skeleton() {
     const ctx = this.ctx;
     const joints = this.doc.keyPose(this.k);
-    const parents = this.doc.shot.skeleton.parents;
+    const parents = this.doc.parents();
+    const names = this.doc.jointNames();
+    const allNames = this.app.tool === 'skeleton';  // building the skeleton: every joint says which it is
     const zs = joints.map((j) => j[2]);
     const lo = Math.min(...zs), hi = Math.max(...zs);
     const sel = this.app.selected;
@@ -136,9 +143,9 @@ export class KeyView {
       ctx.lineWidth = selected ? 3 : 1.5;
       ctx.strokeStyle = selected ? '#ffeb3b' : '#111';
       ctx.stroke();
-      if (selected || hovered) {
+      if (selected || hovered || allNames) {
         ctx.font = '12px system-ui';
-        const label = `${this.doc.shot.skeleton.joints[j]}  z=${(+z).toFixed(2)}`;
+        const label = selected || hovered ? `${names[j]}  z=${(+z).toFixed(2)}` : names[j];
         ctx.fillStyle = '#000b';
         ctx.fillRect(sx + 9, sy - 22, ctx.measureText(label).width + 8, 17);
         ctx.fillStyle = '#fff';
@@ -177,30 +184,111 @@ export class KeyView {
     ctx.setLineDash([]);
   }
 
-  /** The save error next to the item it names (a joint, a T-junction), if it is on this keyframe. */
-  _errorBubble() {
-    const err = this.app.errorItem;
-    this.bubbles.replaceChildren();
-    if (!err || err.k !== this.k) return;
-    const shot = this.doc.shot;
-    const p = err.kind === 'joint' ? shot.poses[err.pose]?.joints[err.index] : shot.t_junctions?.[this.k]?.[err.index];
-    if (!p) return;
-    const [sx, sy] = this.view.toScreen(p[0], p[1]);
+  /** The bone being drawn (Skeleton tool) or the template's box being dragged (Template tool). */
+  _gesture() {
+    const d = this.drag;
+    if (!d || !d.moved || (d.kind !== 'bone' && d.kind !== 'box')) return;
     const ctx = this.ctx;
+    ctx.setLineDash([6, 4]);
+    ctx.lineWidth = 2;
+    ctx.strokeStyle = '#ffeb3b';
+    const [ax, ay] = this.view.toScreen(...d.a), [bx, by] = this.view.toScreen(...d.b);
     ctx.beginPath();
-    ctx.arc(sx, sy, 13, 0, 2 * Math.PI);
-    ctx.lineWidth = 3; ctx.strokeStyle = '#e5484d'; ctx.stroke();
+    if (d.kind === 'bone') { ctx.moveTo(ax, ay); ctx.lineTo(bx, by); } else ctx.rect(ax, ay, bx - ax, by - ay);
+    ctx.stroke();
+    ctx.setLineDash([]);
+    if (d.kind === 'box' && this.app.template) {
+      const [x0, y0] = d.a, [x1, y1] = d.b;
+      ctx.fillStyle = '#ffeb3b';
+      for (const [u, v] of this.app.template.positions) {
+        const [sx, sy] = this.view.toScreen(x0 + u * (x1 - x0), y0 + v * (y1 - y0));
+        ctx.fillRect(sx - 2, sy - 2, 4, 4);
+      }
+    }
+  }
+
+  /** A bubble at screen point (sx, sy), kept inside the pane, on the side with more room. */
+  _bubble(sx, sy, cls, parts, data) {
     const b = document.createElement('div');
-    b.className = 'bubble';
-    b.dataset.field = err.field;
-    b.textContent = err.message;
+    b.className = `bubble ${cls}`;
+    Object.assign(b.dataset, data);
+    for (const [c, text] of parts) {
+      if (!text) continue;
+      const span = document.createElement('span');
+      span.className = c;
+      span.textContent = text;
+      b.append(span);
+    }
     const { width, height } = this.canvas.getBoundingClientRect();
-    // kept inside the pane even when the item was dragged off the keyframe; on the side with more room
     const x = Math.min(Math.max(sx, 0), width);
-    if (x > width / 2) b.classList.add('left');
+    const left = x > width - x;  // the side with more room; never wider than that room
+    if (left) b.classList.add('left');
+    b.style.maxWidth = `${Math.max(120, Math.min(320, (left ? x : width - x) - 24))}px`;
     b.style.left = `${x}px`;
     b.style.top = `${Math.min(Math.max(sy, 30), height - 30)}px`;
     this.bubbles.append(b);
+    return b;
+  }
+
+  /** The save error next to the item it names, and the stages' warnings at what they name (if on this keyframe);
+   *  warnings about the keyframe as a whole in its notes. */
+  _bubbles() {
+    this.bubbles.replaceChildren();
+    const ctx = this.ctx;
+    const placed = [];
+    if (this.app.overlays.has('warnings')) {
+      const notes = [];
+      for (const { w, at, subject } of this.app.warningsFor(this.k)) {
+        if (!at) { notes.push(w); continue; }
+        const [sx, sy] = this.view.toScreen(at[0], at[1]);
+        ctx.beginPath();
+        ctx.arc(sx, sy, 11, 0, 2 * Math.PI);
+        ctx.lineWidth = 2.5; ctx.strokeStyle = WARN_COLOUR; ctx.setLineDash(w.stale ? [3, 3] : []); ctx.stroke();
+        ctx.setLineDash([]);
+        placed.push(this._bubble(sx, sy, `warning${w.stale ? ' stale' : ''}`,
+          [['subject', subjectLabel(w)], ['what', w.problem], ['fix', w.fix ? `fix: ${w.fix}` : ''],
+            ['from', `${w.stage}${w.stale ? ' · before your last change' : ''}`]],
+          { stage: w.stage, kind: w.kind || '', subject: subject || '', at: `${at[0].toFixed(1)},${at[1].toFixed(1)}` }));
+      }
+      this.notes.replaceChildren(...notes.map((w) => {
+        const div = document.createElement('div');
+        div.className = `note${w.stale ? ' stale' : ''}`;
+        div.dataset.stage = w.stage;
+        div.textContent = `${w.stage}: ${w.problem}${w.fix ? `; fix: ${w.fix}` : ''}`;
+        return div;
+      }));
+      this.notes.hidden = !notes.length;
+    } else {
+      this.notes.hidden = true;
+    }
+    const err = this.app.errorItem;
+    if (err && err.k === this.k) {
+      const shot = this.doc.shot;
+      const p = err.kind === 'joint' ? shot.poses?.[err.pose]?.joints?.[err.index] : shot.t_junctions?.[this.k]?.[err.index];
+      if (p) {
+        const [sx, sy] = this.view.toScreen(p[0], p[1]);
+        ctx.beginPath();
+        ctx.arc(sx, sy, 13, 0, 2 * Math.PI);
+        ctx.lineWidth = 3; ctx.strokeStyle = '#e5484d'; ctx.stroke();
+        placed.push(this._bubble(sx, sy, 'error', [['what', err.message]], { field: err.field }));
+      }
+    }
+    // one under the other where they would overlap, in the order of their points from the top
+    placed.sort((a, b) => parseFloat(a.style.top) - parseFloat(b.style.top));
+    const taken = [];
+    for (const b of placed) {
+      for (let moved = true; moved;) {
+        moved = false;
+        const r = b.getBoundingClientRect();
+        for (const t of taken) {
+          if (r.left < t.right && t.left < r.right && r.top < t.bottom + 3 && t.top < r.bottom + 3) {
+            b.style.top = `${parseFloat(b.style.top) + (t.bottom + 4 - r.top)}px`;
+            moved = true;
+          }
+        }
+      }
+      taken.push(b.getBoundingClientRect());
+    }
   }
 
   // ---------------------------------------------------------------- picking
@@ -212,7 +300,7 @@ export class KeyView {
       const d = Math.hypot(px - sx, py - sy);
       if (d < bestD) { best = { kind, index: i }; bestD = d; }
     });
-    if (this.app.overlays.has('tjunctions')) consider('tj', this.doc.shot.t_junctions?.[this.k] || []);
+    if (this.app.overlays.has('tjunctions') && this.app.tool !== 'skeleton') consider('tj', this.doc.shot.t_junctions?.[this.k] || []);
     if (this.app.overlays.has('skeleton')) consider('joint', this.doc.keyPose(this.k));
     return best;
   }
@@ -256,6 +344,14 @@ export class KeyView {
       app.redraw();
       return;
     }
+    if (tool === 'skeleton' || tool === 'template') {
+      // skeleton: press on a joint and drag onto another (re-parent) or onto paper (a new child); click: add / select.
+      // template: drag the box the template's unit box is placed in
+      const hit = tool === 'skeleton' ? this._pick(sx, sy) : null;
+      this.drag = { kind: tool === 'skeleton' ? 'bone' : 'box', from: hit ? hit.index : null, sx, sy, moved: false,
+        a: hit ? this._itemXY(hit) : [x, y], b: [x, y] };
+      return;
+    }
     const hit = this._pick(sx, sy);
     if (hit && e.altKey && hit.kind === 'tj') {
       app.select(null);
@@ -297,13 +393,22 @@ export class KeyView {
       const hover = this._pick(sx, sy);
       if (JSON.stringify(hover) !== JSON.stringify(this.hover)) this.hover = hover;
       this.canvas.style.cursor = hover && this.app.tool !== 'paint' && this.app.tool !== 'erase' ? 'grab'
-        : this.app.tool === 'tjunction' ? 'crosshair' : 'default';
+        : ['tjunction', 'skeleton', 'template'].includes(this.app.tool) ? 'crosshair' : 'default';
       if (this.app.tool === 'paint' || this.app.tool === 'erase' || hover || this.hover) this.draw();
       return;
     }
     if (d.kind === 'pan') {
       this.view.panX = d.panX + sx - d.sx;
       this.view.panY = d.panY + sy - d.sy;
+      this.draw();
+    } else if (d.kind === 'bone' || d.kind === 'box') {
+      d.b = [x, y];
+      d.moved = d.moved || Math.hypot(sx - d.sx, sy - d.sy) >= DRAG_PX;
+      if (d.kind === 'bone' && d.from === null && d.moved) {  // a drag from paper pans, as with the other tools
+        this.drag = { kind: 'pan', sx: d.sx, sy: d.sy, panX: this.view.panX, panY: this.view.panY };
+        this._move(e);
+        return;
+      }
       this.draw();
     } else if (d.kind === 'brush') {
       const box = d.layer.stroke(d.last[0], d.last[1], x, y, this.app.brush, this.app.tool === 'erase');
@@ -325,6 +430,18 @@ export class KeyView {
     this.drag = null;
     if (this.canvas.hasPointerCapture(e.pointerId)) this.canvas.releasePointerCapture(e.pointerId);
     if (!d || d.kind === 'pan') return;
+    if (d.kind === 'bone') {
+      const [sx, sy] = this._local(e);
+      const target = this._pick(sx, sy);
+      this.app.skeletonGesture(this.k, d.from, d.moved ? d.b : d.a, target && target.kind === 'joint' ? target.index : null, d.moved);
+      this.draw();
+      return;
+    }
+    if (d.kind === 'box') {
+      if (d.moved) this.app.placeTemplate(this.k, [...d.a, ...d.b]);
+      this.draw();
+      return;
+    }
     if (d.kind === 'brush') this.app.history.patch(d.layer, d.box, d.before);
     this.app.history.commit();
     this.app.changed();
@@ -343,6 +460,13 @@ export class KeyView {
     this.view.zoomAt(Math.pow(1.0015, -e.deltaY), sx, sy);
     this.draw();
   }
+}
+
+/** What a warning is about, as its bubble names it: "joint r_hand", "occlusion region 0", "T-junction". */
+function subjectLabel(w) {
+  if (!w.kind) return '';
+  if (w.names && w.names.length) return `${w.kind} ${w.names.join(' / ')}`;
+  return w.index !== null && w.index !== undefined ? `${w.kind} ${w.index}` : w.kind;
 }
 
 function union(a, b) {

@@ -1,4 +1,5 @@
-// The editor page: loads the shot, wires the three views, the rerun panel, undo/redo, saving and the keyboard.
+// The editor page: loads the shot, wires the three views, the rerun panel, undo/redo, saving and the keyboard;
+// the skeleton tools (editor/static/js/skeleton.js) and the stages' warnings at what they name.
 
 import { ApiError, getJSON, getVersioned, loadImage, putPNG, putVersioned, sendJSON } from './api.js';
 import { Doc, History } from './doc.js';
@@ -7,13 +8,17 @@ import { KeyView } from './keyview.js';
 import { MaskLayer, layerFromUrl, regionColour, FOREGROUND_COLOUR } from './masks.js';
 import { PoseView } from './pose.js';
 import { ResultsView } from './results.js';
+import {
+  SkeletonError, addJoint, applyTemplate, copyPose, deleteJoint, keyCount, keyPoseIndices, renameJoint, reparent,
+} from './skeleton.js';
 import { StagesPanel, followStatus } from './stages.js';
 
 const OVERLAYS = [
   ['drawing', 'Drawing', true], ['skeleton', 'Skeleton', true], ['tjunctions', 'T-junctions', true],
   ['manual', 'Manual masks', true], ['predicted', 'Predicted masks', false], ['refined', 'Refined masks', false],
-  ['boundaries', 'Refined boundaries', true],
+  ['boundaries', 'Refined boundaries', true], ['warnings', 'Stage warnings', true],
 ];
+const TJ_FOLLOW_PX = 8;  // a T-junction warning stays with the T-junction nearest where the stage saw it
 const $ = (id) => document.getElementById(id);
 
 class App {
@@ -22,8 +27,8 @@ class App {
     const { data: shot, etag } = await getVersioned('/api/shot');
     this.etag = etag;  // a save refuses to overwrite a shot.json changed on disk since
     $('shot-name').textContent = this.info.shot_dir;
-    if (!this.info.size) throw new Error('the keyframes cannot be read: fix keyframes in shot.json');
-    this.doc = new Doc(shot, this.info.size);
+    // keyframes that cannot be read: the page still opens, with the loader's message at `keyframes`
+    this.doc = new Doc(shot, this.info.size || [256, 256]);
     // an edit after a refused save clears its message: the user is fixing it (Save shows it again if not)
     this.history = new History(this.doc, () => { if (this.errorItem) this.clearError(); this.changed(); });
     this.tool = 'select';
@@ -38,6 +43,9 @@ class App {
     this.refined = [null, null];
     this.plan = null;
     this.status = null;
+    this.warnings = [];
+    this.templates = await getJSON('/api/templates');
+    this.template = null;
     this.stages = new StagesPanel(this.info);
     this.keys = [...document.querySelectorAll('.keypane')].map((pane) => new KeyView(+pane.dataset.k, pane, this));
     this.results = new ResultsView(this);
@@ -49,9 +57,65 @@ class App {
     this.changed();
     this.keys.forEach((v) => v.fit());
     followStatus((st) => this.onStatus(st));
+    await this.checkShot();
     this.refreshPlan();
+    this.loadWarnings();
     this.results.refresh();
     document.body.dataset.ready = '1';
+  }
+
+  /** The loader's verdict on the saved shot: a shot it refuses opens with the message at the field it names. */
+  async checkShot() {
+    const got = await getJSON('/api/check');
+    if (!got.ok) this.showError(got.error, got.field);
+  }
+
+  async loadWarnings() {
+    try {
+      this.warnings = (await getJSON('/api/warnings')).warnings;
+    } catch {
+      this.warnings = [];
+    }
+    const counts = {};
+    for (const w of this.warnings) (counts[w.stage] = counts[w.stage] || []).push(w.text);
+    this.stages.setWarnings(counts);
+    this.redraw();
+    this._layers();
+    $('warning-count').textContent = this.warnings.length ? `${this.warnings.length} stage warning${this.warnings.length === 1 ? '' : 's'}` : '';
+  }
+
+  /** Keyframe k's warnings with where to show them now: [{w (with .stale), at ([x, y] or null), subject}]. */
+  warningsFor(k) {
+    const names = this.doc.jointNames();
+    const pose = this.doc.keyPose(k);
+    const joint = (n) => { const j = names.indexOf(n); return j >= 0 && pose[j] ? j : -1; };
+    const out = [];
+    for (const w of this.warnings) {
+      if (w.k !== k) continue;
+      let at = w.at, subject = '';
+      if ((w.kind === 'joint' || w.kind === 'handle') && joint(w.names[0]) >= 0) {
+        const j = joint(w.names[0]);
+        at = pose[j].slice(0, 2);  // where the joint is now: the warning follows a drag
+        subject = `joint:${names[j]}`;
+      } else if (w.kind === 'bone' && w.names.length) {
+        const name = w.names[0];
+        for (let i = name.indexOf('-'); i >= 0; i = name.indexOf('-', i + 1)) {  // joint names may hold '-'
+          const a = joint(name.slice(0, i)), b = joint(name.slice(i + 1));
+          if (a >= 0 && b >= 0) { at = [(pose[a][0] + pose[b][0]) / 2, (pose[a][1] + pose[b][1]) / 2]; subject = `bone:${name}`; break; }
+        }
+      } else if (w.kind === 'T-junction' && at) {
+        const pts = this.doc.shot.t_junctions?.[k] || [];
+        let best = -1, bestD = TJ_FOLLOW_PX;
+        pts.forEach(([x, y], i) => { const d = Math.hypot(x - w.at[0], y - w.at[1]); if (d < bestD) { best = i; bestD = d; } });
+        if (best >= 0) { at = pts[best].slice(0, 2); subject = `tj:${best}`; }
+      } else if (w.kind === 'manual occlusion mask' && w.index !== null) {
+        subject = `mask:${w.index}`;
+      } else if (w.kind === 'occlusion region' && w.index !== null) {
+        subject = `region:${w.index}`;
+      }
+      out.push({ w: { ...w, stale: this.stale(w.stage) }, at, subject });
+    }
+    return out;
   }
 
   // ---------------------------------------------------------------- loading
@@ -120,6 +184,8 @@ class App {
     this.stages.setWillRun(dirty ? this.stages.downstream(this.doc.changedSources()) : new Set());
     this._layers();
     this._inspector();
+    this._skeletonPanel();
+    this._shotFields();
   }
 
   redraw() { this.keys.forEach((v) => v.draw()); }
@@ -141,11 +207,13 @@ class App {
     this.focusedKey = k;
     document.querySelectorAll('.keypane').forEach((p) => p.classList.toggle('focus', +p.dataset.k === k));
     if (+$('mask-key').value !== k) { $('mask-key').value = String(k); this._layers(); }
+    this._skeletonPanel();
   }
 
   /** Depth by wheel: consecutive notches on one joint make one undo step. */
   wheelDepth(k, j, step) {
     const idx = this.doc.keyPoseIndex(k);
+    if (idx < 0) return;
     const same = this._wheel && this._wheel.k === k && this._wheel.j === j && this.history.open === this._wheel.tx;
     if (!same) this._wheel = { k, j, tx: this.history.begin('joint depth') };
     const joint = this.doc.shot.poses[idx].joints[j];
@@ -236,6 +304,15 @@ class App {
       this.activeLayer[k] === 'fg', pick('fg'), s.fg ? () => this.deleteLayer(k, 'fg') : null, `masks.foreground[${k}]`);
     s.occ.forEach((id, i) => row(regionColour(i), `region ${i} · ${label(id)}`,
       this.activeLayer[k] === i, pick(i), () => this.deleteLayer(k, 'occ', i), `masks.occlusion[${k}][${i}]`));
+    // a stage's warning about a manual occlusion mask marks its row too (the saved shot's mask i)
+    const saved = JSON.parse(this.doc.saved).masks?.occlusion?.[k] || [];
+    for (const w of this.warnings || []) {
+      if (w.k !== k || w.kind !== 'manual occlusion mask' || w.index === null) continue;
+      const div = rows.find((r) => r.dataset.field === `masks.occlusion[${k}][${w.index}]`);
+      if (!div || this.doc.layer(s.occ[w.index])?.name !== saved[w.index]) continue;
+      div.classList.add('warn');
+      div.title = `${w.stage}: ${w.problem}${w.fix ? `; fix: ${w.fix}` : ''}`;
+    }
     if (!s.occ.length) {
       const n = this.predicted[k] ? this.predicted[k].occ.length : 0;
       const div = document.createElement('div');
@@ -257,15 +334,33 @@ class App {
       return;
     }
     const idx = this.doc.keyPoseIndex(sel.k);
-    const joint = this.doc.shot.poses[idx].joints[sel.index];
+    const joint = this.doc.keyPose(sel.k)[sel.index];
     if (!joint) { el.textContent = ''; return; }
     const active = document.activeElement;
     if (active && active.closest && active.closest('#inspector')) return;  // do not rebuild under the user's typing
     el.className = '';
     el.replaceChildren();
+    const names = this.doc.jointNames(), parents = this.doc.parents();
     const title = document.createElement('div');
-    title.textContent = `${this.doc.shot.skeleton.joints[sel.index]} · key${sel.k} (poses[${idx}])`;
-    el.append(title);
+    title.className = 'muted small';
+    title.textContent = `key${sel.k} (poses[${idx}].joints[${sel.index}])`;
+    const nameRow = document.createElement('label');
+    nameRow.className = 'row';
+    const name = document.createElement('input');
+    name.type = 'text'; name.id = 'joint-name'; name.value = names[sel.index]; name.spellcheck = false;
+    name.addEventListener('change', () => this.skeletonEdit('rename joint', () => renameJoint(this.doc.shot, sel.index, name.value)));
+    nameRow.append('name ', name);
+    const parentRow = document.createElement('label');
+    parentRow.className = 'row';
+    const parent = document.createElement('select');
+    parent.id = 'joint-parent';
+    const options = [['-1', '(root)'], ...names.map((n, j) => [String(j), n]).filter(([j]) => +j !== sel.index)];
+    parent.replaceChildren(...options.map(([v, text]) => { const o = document.createElement('option'); o.value = v; o.textContent = text; return o; }));
+    parent.value = String(parents[sel.index]);
+    parent.disabled = parents[sel.index] === -1;  // the root stays the root: re-parent its children instead
+    parent.addEventListener('change', () => this.skeletonEdit('re-parent joint', () => reparent(this.doc.shot, sel.index, +parent.value)));
+    parentRow.append('parent ', parent);
+    el.append(title, nameRow, parentRow);
     ['x', 'y', 'z'].forEach((axis, a) => {
       const label = document.createElement('label');
       label.className = 'row';
@@ -275,11 +370,132 @@ class App {
       input.addEventListener('change', () => {
         const v = parseFloat(input.value);
         if (!Number.isFinite(v)) return;
-        this.edit(`joint ${axis}`, () => { this.doc.shot.poses[idx].joints[sel.index][a] = v; });
+        this.edit(`joint ${axis}`, () => { this.doc.keyPose(sel.k)[sel.index][a] = v; });
       });
       label.append(`${axis} `, input);
       el.append(label);
     });
+    const del = document.createElement('button');
+    del.id = 'joint-delete'; del.textContent = 'Delete joint'; del.title = 'Delete the joint (Delete); its children go to its parent';
+    del.addEventListener('click', () => this.removeJoint(sel.index));
+    el.append(del);
+  }
+
+  // ---------------------------------------------------------------- the skeleton
+
+  /** A skeleton edit as one undo step; an edit that cannot be made changes nothing and says why. */
+  skeletonEdit(label, fn) {
+    try {
+      this.edit(label, fn);
+      return true;
+    } catch (e) {
+      if (!(e instanceof SkeletonError)) throw e;
+      this.history.commit();  // nothing changed: no undo step
+      this.changed();
+      this.flash(e.message);
+      return false;
+    }
+  }
+
+  /** A Skeleton-tool gesture on keyframe k: from a joint (or paper) to (x, y), released on joint `target`. */
+  skeletonGesture(k, from, at, target, moved) {
+    const [x, y] = at;
+    if (from !== null && (!moved || target === from)) { this.select({ k, kind: 'joint', index: from }); return; }
+    if (from !== null && target !== null) {
+      const names = this.doc.jointNames();
+      if (this.skeletonEdit('re-parent joint', () => reparent(this.doc.shot, target, from))) {
+        this.flash(`${names[target]} now hangs from ${names[from]}`);
+        this.select({ k, kind: 'joint', index: target });
+      }
+      return;
+    }
+    // a new joint: the child of the joint dragged from, else of the selected one, else of the nearest; the first is the root
+    let parent = from;
+    const pose = this.doc.keyPose(k);
+    if (parent === null && this.selected?.kind === 'joint' && this.selected.k === k) parent = this.selected.index;
+    if (parent === null && pose.length) {
+      parent = pose.reduce((best, p, j) => (Math.hypot(p[0] - x, p[1] - y) < Math.hypot(pose[best][0] - x, pose[best][1] - y) ? j : best), 0);
+    }
+    let added = null;
+    if (this.skeletonEdit('add joint', () => { added = addJoint(this.doc.shot, k, x, y, parent === null ? -1 : parent); })) {
+      this.select({ k, kind: 'joint', index: added });
+      this.flash(`added ${this.doc.jointNames()[added]}${parent === null ? ' (the root)' : ` under ${this.doc.jointNames()[parent]}`}: rename it in the inspector`);
+    }
+  }
+
+  removeJoint(j) {
+    const name = this.doc.jointNames()[j];
+    this.select(null);
+    if (this.skeletonEdit('delete joint', () => deleteJoint(this.doc.shot, j))) this.flash(`deleted ${name}`);
+  }
+
+  /** Place the chosen template in box [x0, y0, x1, y1] of keyframe k (Template tool). */
+  placeTemplate(k, box) {
+    const tpl = this.template;
+    if (!tpl) { this.flash('choose a template first'); return; }
+    if (Math.abs(box[2] - box[0]) < 8 || Math.abs(box[3] - box[1]) < 8) { this.flash('drag a bigger box around the character'); return; }
+    let replaced = false;
+    this.skeletonEdit(`place ${tpl.name}`, () => { replaced = applyTemplate(this.doc.shot, tpl, k, box); });
+    this.select(null);
+    this.flash(replaced ? `${tpl.name} skeleton placed on every key; drag its box on the other keys to place them there`
+      : `${tpl.name} placed on key${k}`);
+  }
+
+  copyKeyPose(from, to) {
+    if (!this.doc.keyPose(from).length) { this.flash(`key${from} has no pose yet`); return; }
+    this.skeletonEdit(`copy key${from}'s pose to key${to}`, () => copyPose(this.doc.shot, from, to));
+    this.flash(`key${from}'s pose copied to key${to}`);
+  }
+
+  _skeletonPanel() {
+    const names = this.doc.jointNames();
+    const info = $('skeleton-info');
+    info.textContent = names.length
+      ? `${names.length} joint${names.length === 1 ? '' : 's'}, root ${names[this.doc.parents().indexOf(-1)] ?? '?'}`
+      : 'No skeleton yet: choose a template and drag its box around the character, or add joints with the Skeleton tool (J).';
+    const k = this.focusedKey, to = (k + 1) % keyCount(this.doc.shot);
+    const copy = $('copy-pose');
+    copy.textContent = `Copy key${k}'s pose to key${to}`;
+    copy.dataset.from = String(k); copy.dataset.to = String(to);
+    copy.disabled = !this.doc.keyPose(k).length;
+  }
+
+  /** The shot-level fields (format, keyframes, frames): shown, `frames` editable. */
+  _shotFields() {
+    const shot = this.doc.shot;
+    $('field-format').textContent = JSON.stringify(shot.format ?? null);
+    $('set-format').hidden = shot.format === 'inbetween-shot/1' || shot.format === 'inbetween-shot/2';
+    $('field-keyframes').textContent = Array.isArray(shot.keyframes) ? shot.keyframes.join(', ') : JSON.stringify(shot.keyframes ?? null);
+    const frames = $('frames');
+    if (document.activeElement !== frames) frames.value = Number.isInteger(shot.frames) ? String(shot.frames) : '';
+    this._fieldAnchors();
+  }
+
+  /** A save or load error whose field has no joint, T-junction or mask layer to show it at: at the panel row
+   *  of that field (the longest data-anchor prefix of it). */
+  _fieldAnchors() {
+    document.querySelectorAll('[data-anchor]').forEach((el) => {
+      el.classList.remove('error');
+      el.querySelector(':scope > .field-error')?.remove();
+    });
+    const err = this.errorItem;
+    if (!err || !err.field || err.kind) return;
+    if (document.querySelector(`#layers [data-field="${CSS.escape(err.field)}"]`)) return;
+    const f = err.field;
+    let best = null, bestLen = -1;
+    for (const el of document.querySelectorAll('[data-anchor]')) {
+      for (const a of el.dataset.anchor.split(' ')) {
+        const hit = f === a || f.startsWith(`${a}.`) || f.startsWith(`${a}[`);
+        if (hit && a.length > bestLen) { best = el; bestLen = a.length; }
+      }
+    }
+    if (!best) return;
+    best.classList.add('error');
+    const div = document.createElement('div');
+    div.className = 'field-error';
+    div.dataset.field = f;
+    div.textContent = err.message;
+    best.append(div);
   }
 
   // ---------------------------------------------------------------- saving and reruns
@@ -313,6 +529,7 @@ class App {
     try {
       this.plan = await getJSON('/api/plan');
       this.stages.setPlan(this.plan);
+      this.redraw();  // warnings of stale stages are drawn dashed
     } catch (e) {
       if (e instanceof ApiError && e.status === 400) this.showError(e.message, e.field);
     }
@@ -326,8 +543,13 @@ class App {
     this.stages.setStatus(st);
     const finished = st.state !== 'running' && (!prev || prev.state === 'running' || prev.seq !== st.seq);
     if (finished && prev) {
+      // the plan taken before this rerun says nothing about its result: the panel shows the status until
+      // the new plan is in (then "stale" if the saved shot still needs stages, "done" if not)
+      this.plan = null;
+      this.stages.setPlan(null);
       await this.refreshPlan();
       await Promise.all([0, 1].map((k) => this._loadKey(k)));
+      await this.loadWarnings();
       await this.results.refresh();
       this.redraw();
       this._layers();
@@ -345,19 +567,20 @@ class App {
     const short = field && message.includes(`${field}: `) ? message.split(`${field}: `).slice(1).join(`${field}: `) : message;
     this.errorItem = { field, message: short };
     let m;
-    if (field && (m = field.match(/^poses\[(\d+)\]\.joints(?:\[(\d+)\])?/))) {
-      const i = +m[1];
-      const k = i === 0 ? 0 : i === this.doc.shot.poses.length - 1 ? 1 : null;
-      if (k !== null) Object.assign(this.errorItem, { k, kind: 'joint', pose: i, index: m[2] === undefined ? 0 : +m[2] });
+    if (field && (m = field.match(/^poses\[(\d+)\]\.joints\[(\d+)\]/))) {
+      const i = +m[1], j = +m[2];
+      const k = keyPoseIndices(this.doc.shot).indexOf(i);  // a joint of a key pose: shown at it
+      if (k >= 0 && this.doc.shot.poses[i]?.joints?.[j]) Object.assign(this.errorItem, { k, kind: 'joint', pose: i, index: j });
       this._showView('annotate');
-    } else if (field && (m = field.match(/^t_junctions\[(\d)\](?:\[(\d+)\])?/))) {
-      Object.assign(this.errorItem, { k: +m[1], kind: 'tj', index: m[2] === undefined ? 0 : +m[2] });
+    } else if (field && (m = field.match(/^t_junctions\[(\d+)\]\[(\d+)\]/))) {
+      if (this.doc.shot.t_junctions?.[+m[1]]?.[+m[2]]) Object.assign(this.errorItem, { k: +m[1], kind: 'tj', index: +m[2] });
       this._showView('annotate');
     } else if (field && (m = field.match(/^masks\.(?:foreground|occlusion)\[(\d)\]/))) {
       $('mask-key').value = m[1];
       this._showView('annotate');
     }
     this._layers();
+    this._fieldAnchors();
     this.redraw();
   }
 
@@ -365,11 +588,13 @@ class App {
     $('error-bar').hidden = true;
     this.errorItem = null;
     this._layers();
+    this._fieldAnchors();
     this.redraw();
   }
 
   flash(text) {
     $('dirty').textContent = text;
+    $('dirty').title = text;  // the whole message, when the header cuts it short
     clearTimeout(this._flashTimer);
     this._flashTimer = setTimeout(() => this.changed(), 2500);
   }
@@ -411,6 +636,17 @@ class App {
       return l;
     }));
     $('mask-key').addEventListener('change', () => this._layers());
+    $('template').replaceChildren(...Object.keys(this.templates).map((n) => { const o = document.createElement('option'); o.value = o.textContent = n; return o; }));
+    const pickTemplate = () => { this.template = { name: $('template').value, ...this.templates[$('template').value] }; };
+    pickTemplate();
+    $('template').addEventListener('change', () => { pickTemplate(); this.setTool('template'); });
+    $('place-template').addEventListener('click', () => this.setTool('template'));
+    $('copy-pose').addEventListener('click', () => this.copyKeyPose(+$('copy-pose').dataset.from, +$('copy-pose').dataset.to));
+    $('set-format').addEventListener('click', () => this.edit('set format', () => { this.doc.shot.format = 'inbetween-shot/1'; }));
+    $('frames').addEventListener('change', () => {
+      const v = $('frames').value.trim();
+      this.edit('frames', () => { if (v === '') delete this.doc.shot.frames; else this.doc.shot.frames = Number(v); });
+    });
     $('new-region').addEventListener('click', () => this.newRegion(+$('mask-key').value));
     $('from-prediction').addEventListener('click', () => this.fromPrediction(+$('mask-key').value));
     $('undo').addEventListener('click', () => this.history.undo());
@@ -455,10 +691,12 @@ class App {
     return {
       'tool-select': () => this.setTool('select'), 'tool-tjunction': () => this.setTool('tjunction'),
       'tool-paint': () => this.setTool('paint'), 'tool-erase': () => this.setTool('erase'),
+      'tool-skeleton': () => this.setTool('skeleton'), 'tool-template': () => this.setTool('template'),
       'brush-smaller': () => this.setBrush(this.brush - 2), 'brush-larger': () => this.setBrush(this.brush + 2),
       'new-region': () => this.newRegion(this.focusedKey),
       delete: () => {
         const sel = this.selected;
+        if (sel && sel.kind === 'joint') { this.removeJoint(sel.index); return; }
         if (!sel || sel.kind !== 'tj') return;
         this.select(null);
         this.edit('delete T-junction', () => this.doc.shot.t_junctions[sel.k].splice(sel.index, 1));

@@ -42,8 +42,17 @@ export class PoseView {
   }
 
   async enter() {
-    await this._ticks();
-    await this.setT(this.t);
+    try {
+      await this._ticks();
+      await this.setT(this.t);
+    } catch (e) {
+      // no skeleton or poses yet (or a motion the loader refuses): say so instead of a stale view
+      this.pose = null;
+      this.image = null;
+      this.msg.hidden = false;
+      this.msg.textContent = `no motion to pose: ${e.message}`;
+      this.draw();
+    }
   }
 
   /** Show the pose at time t, interpolated per bone from the poses being edited (saved or not). */
@@ -138,7 +147,7 @@ export class PoseView {
     if (this.image) ctx.drawImage(this.image, -0.5, -0.5, W, H);
     if (!this.pose) return;
     ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
-    const parents = this.app.doc.shot.skeleton.parents;
+    const parents = this.app.doc.parents();
     ctx.strokeStyle = '#333c';
     ctx.lineWidth = 2;
     parents.forEach((p, c) => {
