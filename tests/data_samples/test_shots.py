@@ -1,4 +1,4 @@
-"""The six shots of issue 8 and the ground truth of every shot: loadable, regenerable, masks consistent, holes real."""
+"""The sample shots (v1 and v2) and their ground truth: loadable, regenerable, masks consistent, holes real."""
 from __future__ import annotations
 
 import json
@@ -8,13 +8,15 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
+from data_samples.generator.sequences import SEQUENCES, write_sequence
 from data_samples.generator.shots import NEW_SHOTS, SHOTS
 from data_samples.generator.write import generate, output_poses, shot_drawing, shot_look
 from ops.shotio.image_io import read_image
-from ops.shotio.load import load_shot
+from ops.shotio.load import ground_truth_files, load_shot
 
 ROOT = Path(__file__).resolve().parents[2] / "data_samples"
 NAMES = sorted(SHOTS)
+SEQ_NAMES = sorted(SEQUENCES)  # the v2 samples: sequences of keys and one-drawing shots
 HOLES = {("hand_on_hip", 0), ("hand_on_hip", 1), ("lamp", 0), ("curled_tail", 1)}  # enclosed paper by design
 NO_HOLES = {("lamp", 1), ("curled_tail", 0), ("watercolour", 0), ("flat_colour", 0), ("scan_jpeg", 1)}
 
@@ -37,8 +39,30 @@ def _holes(fg: np.ndarray) -> list[int]:
 
 
 def test_all_shots_are_committed():
-    assert sorted(p.parent.name for p in ROOT.glob("*/shot.json")) == NAMES
+    assert sorted(p.parent.name for p in ROOT.glob("*/shot.json")) == sorted(NAMES + SEQ_NAMES)
     assert len(NEW_SHOTS) == 6 and set(NEW_SHOTS) < set(NAMES)
+
+
+@pytest.mark.parametrize("name", SEQ_NAMES)
+def test_v2_sample_loads_with_its_keys_and_ground_truth(name):
+    shot = load_shot(ROOT / name)
+    spec = SEQUENCES[name]()
+    assert shot.version == 2 and shot.n_keys == (1 if spec.one_drawing else len(spec.keys))
+    assert len(shot.times) == spec.n_frames and len(ground_truth_files(shot.ground_truth)) == spec.n_frames
+    for k, f in enumerate(shot.key_frames):  # each keyframe is the ground truth at its frame, byte for byte
+        assert (ROOT / name / f"key{k}.png").read_bytes() == (ROOT / name / "gt" / f"{f:04d}.png").read_bytes()
+    pairs = json.loads((ROOT / name / "gt_occ" / "pairs.json").read_text())
+    assert {p["keyframe"] for p in pairs} <= set(range(shot.n_keys))
+
+
+@pytest.mark.parametrize("name", ["one_arm_swing", pytest.param("seq_dino_step", marks=pytest.mark.slow)])
+def test_v2_sample_regenerates_identically(tmp_path, name):
+    out = write_sequence(SEQUENCES[name](), tmp_path)
+    ref = ROOT / name
+    files = sorted(p.relative_to(ref) for p in ref.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file())
+    for f in files:
+        assert (out / f).read_bytes() == (ref / f).read_bytes(), f
 
 
 @pytest.mark.parametrize("name", NAMES)
