@@ -30,6 +30,7 @@ INK_MAX_WIDTH_PX = 5  # half the widest line (the closing's disc radius) at the 
 EDGE_DE = 12.0  # CIE76 step across a colour edge (paint without ink) that counts as a line
 BRANCH_PX = 7  # branches are followed this far (reference size) to read their directions
 MIN_BRANCH_PX = 3  # a branch shorter than this is a spur of the thinning, not a line
+CROSSING_COS = 0.8  # two pairs of branches each within ~37 deg of straight on: two lines crossing, not a T
 GAP_PX = 4.0  # a line that ends this close to another line (reference size) meets it
 SIDE_PX = 3.0  # the bodies around a candidate are read this far from it (reference size)
 NEAR_REGION_PX = 8.0  # a junction lies this close to an occlusion region (reference size)
@@ -184,6 +185,9 @@ def _best_t(dirs: list[np.ndarray], lengths: list[int], reach: int):
     """(stem, through, straightness, sine, length share) of the best T among branch directions, or None."""
     if len(dirs) < 3:
         return None
+    opposite = [(i, j) for i in range(len(dirs)) for j in range(i + 1, len(dirs)) if dirs[i] @ dirs[j] < -CROSSING_COS]
+    if any(not ({*a} & {*b}) for a in opposite for b in opposite):
+        return None  # two lines crossing: nothing covered
     best, best_value = None, -np.inf
     for i in range(len(dirs)):
         for j in range(i + 1, len(dirs)):
