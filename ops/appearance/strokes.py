@@ -19,7 +19,7 @@ from scipy.spatial import cKDTree
 from skimage.morphology import skeletonize
 
 INK_CONTRAST_L = 10.0  # L* units: a line is this much darker than the closing of its neighbourhood
-INK_MAX_WIDTH_PX = 6  # widest stroke taken for a line (the closing's disc radius); wider dark areas are fills
+INK_MAX_WIDTH_PX = 5  # half the widest stroke taken for a line (the closing's disc radius); wider dark areas are fills
 RADIAL_COS = 0.5  # a stroke enters the hole when it runs within 60 deg of the boundary's normal
 DIRECTION_RADIUS_PX = 3.0  # skeleton neighbours within this radius give a pixel's direction
 MIN_RADIAL_EXTENT_PX = 3.0  # a stroke end reaches at least this far out from the hole (shorter: a blob, a spur)
