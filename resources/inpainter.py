@@ -1,9 +1,11 @@
 """The inpainter as a Dagster resource.
 
-The default is OpenCV's inpainting. To plug in a learned inpainter, subclass
-InpainterResource and override get() to return any callable with the
-ops.inpaint.Inpainter signature ``(image (H, W, 3) float32, hole (H, W) bool)
--> (H, W, 3) float32``, e.g.::
+`method` picks how pocket texture that no keyframe shows is filled: "auto" (per connected hole: flat colour
+with its strokes continued where the surroundings are flat, OpenCV's Telea where they are textured), "flat"
+(every hole flat), "telea" or "ns" (cv2.inpaint). To plug in a learned inpainter, subclass
+InpainterResource and override get() to return any callable with the ops.appearance.inpaint.Inpainter
+signature ``(image (H, W, 3) float32, hole (H, W) bool[, coverage (H, W) float32]) -> (H, W, 3) float32``,
+e.g.::
 
     class LamaInpainterResource(InpainterResource):
         weights: str
@@ -16,15 +18,15 @@ from __future__ import annotations
 
 from dagster import ConfigurableResource
 
-from ops.appearance.inpaint import Inpainter, OpenCVInpainter
+from ops.appearance.inpaint import Inpainter, make_inpainter
 
 
 class InpainterResource(ConfigurableResource):
     """Which inpainter fills pocket texture that no keyframe shows (§5.1)."""
 
-    method: str = "telea"  # "telea" | "ns" (cv2.inpaint)
-    radius: int = 5  # neighbourhood radius, pixels
+    method: str = "telea"  # "auto" | "flat" | "telea" | "ns" (ops.appearance.inpaint.INPAINT_METHODS)
+    radius: int = 5  # Telea / Navier-Stokes neighbourhood radius, pixels
 
     def get(self) -> Inpainter:
         """The inpainter callable (validates method and radius)."""
-        return OpenCVInpainter(radius=self.radius, method=self.method)
+        return make_inpainter(self.method, self.radius)

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.appearance.inpaint import Inpainter
+from ops.appearance.inpaint import Inpainter, inpaint
 from ops.appearance.layers import region_of_front_faces
 from ops.appearance.render import affine_maps, rasterize_ids
 from ops.types import RefinedMasks, Template, TexturedTemplate
@@ -132,7 +132,9 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     absent = covered & (cv2.remap(inside_other, qx, qy, borderValue=0, **remap) < 0.5)
     holes = covered & ~ok & ~absent
     context = np.where(ok[..., None], sampled, texture[..., :3])
-    filled = np.asarray(inpainter(context.astype(np.float32), holes), dtype=np.float32)
+    # what the context shows of the character (paper gives no colour): the other keyframe's where sampled
+    context_cover = np.where(ok, cov, texture[..., 3]).astype(np.float32)
+    filled = inpaint(inpainter, context.astype(np.float32), holes, context_cover)
     back[..., :3] = np.where((ok | absent)[..., None], sampled, filled)
     back[..., 3] = np.where(ok | absent, cov, 1.0)
     back[~covered] = 0.0

@@ -278,3 +278,26 @@ def test_the_layer_nearer_at_the_keyframe_shows_the_drawing():
     before = drawing_faces(tpl, W, np.array([[0, 0, 0.0], [0, 0, -1.0]]))
     assert before[tpl.face_layer == 1].all() and not before[sheet_in_region].any()
     assert before[(tpl.face_layer == 0) & ~sheet_in_region].all()
+
+
+def test_texture_hands_the_inpainter_the_context_coverage():
+    """An inpainter that takes coverage gets what the context shows of the character (0 off it); one written
+    for the first protocol is called without it."""
+    size = 64
+    tpl = make_template(size)
+    drawing = np.broadcast_to(np.array([0.2, 0.6, 0.4], np.float32), (size, size, 3)).copy()
+    fg = square_foreground(size, 7.5)
+    calls = {}
+
+    def modern(image, hole, coverage=None):
+        calls["modern"] = coverage
+        return OpenCVInpainter()(image, hole)
+
+    def legacy(image, hole):
+        calls["legacy"] = True
+        return OpenCVInpainter()(image, hole)
+
+    for inp in (modern, legacy):
+        texture_template(tpl, depth_weights(tpl), refined(fg, drawing), refined(fg, drawing, [fg]), FLAT, tpl.rest, inp)
+    cov = calls["modern"]
+    assert cov.shape == fg.shape and np.array_equal(cov > 0.5, fg) and calls["legacy"]
