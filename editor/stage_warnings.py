@@ -8,14 +8,14 @@ from __future__ import annotations
 
 import re
 
-from assets.graph import STAGES
+from assets.graph import shot_graph
 from ops.warning_subject import parse
 from resources.store import Store
 
 KEY_STAGE = re.compile(r"^key(\d+)/")
 
 
-def stage_warnings(store: Store, partition: str, stages=STAGES) -> list[dict]:
+def stage_warnings(store: Store, partition: str, stages=shot_graph(2).stages) -> list[dict]:
     """The stored stages' warnings, upstream first, each once per keyframe: {"stage", "k" (None: not a
     keyframe's lane), "text", "kind" (None: about the keyframe or the shot as a whole), "names", "index",
     "at" ([x, y] keyframe pixels or None), "problem", "fix"}."""

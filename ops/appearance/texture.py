@@ -104,7 +104,7 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     if other is None:  # one drawing: no other keyframe shows the hidden layers, so all of them are inpainted
         face_source[hidden] = 2
         covered = _back_samples(template, hidden, template.rest, shape)[0] >= 0
-        back[..., :3] = np.asarray(inpainter(texture[..., :3].astype(np.float32), covered), dtype=np.float32)
+        back[..., :3] = inpaint(inpainter, texture[..., :3].astype(np.float32), covered, texture[..., 3])
         back[..., 3] = 1.0
         back[~covered] = 0.0
         back_inpainted[:] = covered

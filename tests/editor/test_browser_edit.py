@@ -102,7 +102,9 @@ def test_stage_warnings_show_at_what_they_name_with_their_fix(serve, small_shot,
 
 
 def test_after_a_reload_the_panel_says_stale_when_the_plan_has_stale_stages(serve, small_shot, open_page, home):
-    from assets.graph import STAGES
+    from assets.graph import shot_graph
+
+    STAGES = shot_graph(2).stages
 
     # the last rerun finished ("done") but the store holds nothing for the saved shot (a cleared store, a shot
     # edited by hand, new code): the plan lists every stage as missing
