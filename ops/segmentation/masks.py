@@ -100,7 +100,7 @@ regions shaped by the drawing) or "drawing". `source`
         # or a hip opened as a dark blob when the limb moved (arm_cross: 25.2 -> 25.5 dB, Chamfer 30.2 -> 28.1)
         from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion  # torch: only here
 
-        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False)
+        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False, source=source)
         warnings += w
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)

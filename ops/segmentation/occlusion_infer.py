@@ -108,12 +108,15 @@ def _up(x: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return hwc.reshape(shape[0], shape[1], -1).transpose(2, 0, 1)
 
 
-def occlusion_logits(x: np.ndarray, path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> np.ndarray:
-    """(IN_CHANNELS, H, W) float32 network input -> (H, W) float32 logits of "this pixel covers another part"."""
+def occlusion_logits(x: np.ndarray, path: str | None = None, sha256: str | None = None) -> np.ndarray:
+    """(IN_CHANNELS, H, W) float32 network input -> (H, W) float32 logits of "this pixel covers another part".
+
+    path, sha256: the weights (default: WEIGHTS_PATH and WEIGHTS_SHA256 as they are at the call, so a tool
+    that evaluates a candidate weights file sets both)."""
     if x.ndim != 3 or x.shape[0] != IN_CHANNELS or x.shape[1] % STRIDE or x.shape[2] % STRIDE:
         raise ValueError(f"occlusion network input must be ({IN_CHANNELS}, H, W) with H, W multiples of {STRIDE}, "
                          f"got {x.shape}")
-    layers = folded_weights(path, sha256)
+    layers = folded_weights(str(WEIGHTS_PATH) if path is None else path, WEIGHTS_SHA256 if sha256 is None else sha256)
     x = np.ascontiguousarray(x, np.float32)
     skips, t = [], x
     for block in _ENCODER.values():
