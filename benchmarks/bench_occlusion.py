@@ -57,12 +57,15 @@ from tools.occlusion_eval import SET_NOTES, SETS, iou, load_set, union_of  # noq
 OCCLUSION_SHOTS = ("arm_cross", "legs_cross", "tail", "two_poses", "watercolour", "flat_colour", "scan_jpeg",
                    "hand_on_hip", "lamp", "curled_tail")  # every sample shot with an occlusion in a keyframe
 METHODS = ("drawing", "hybrid", "skeleton")
+COLUMNS = [f"{m}|{f}" for f in ("gt fg", "pred fg", "apart") for m in METHODS]
 
 
-def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(H, W) bool union of `method`'s regions on a (H, W, 3) uint8 drawing."""
+def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+            joint_overlaps: bool = True) -> np.ndarray:
+    """(H, W) bool union of `method`'s regions on a (H, W, 3) uint8 drawing (joint_overlaps False: the drawing
+    predictor as the masks stage calls it; the other two leave joints out anyway)."""
     if method == "drawing":
-        regions = drawing_occlusion(image, fg, pose, skeleton)[0]
+        regions = drawing_occlusion(image, fg, pose, skeleton, joint_overlaps=joint_overlaps)[0]
     else:
         regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
         if method == "hybrid":
@@ -70,14 +73,19 @@ def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, sk
     return union_of(regions, fg.shape)
 
 
-def score(image: np.ndarray, truth: np.ndarray, true_fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton
-          ) -> dict[str, float]:
-    """IoU of each method given the true and the predicted foreground: {'drawing|gt fg': ..., ...}."""
+def score(image: np.ndarray, truth: np.ndarray, true_fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+          apart: np.ndarray | None = None) -> dict[str, float]:
+    """IoU of each method given the true and the predicted foreground: {'drawing|gt fg': ..., ...}; with `apart`
+    (the truth's overlaps of bones that share no joint) also 'm|apart', each method as the masks stage runs it
+    (no joint overlaps) against that, given the true foreground."""
     pred_fg = segment_foreground(image.astype(np.float32) / 255.0, pose, skeleton).mask
     out = {}
     for fg_name, fg in (("gt fg", true_fg), ("pred fg", pred_fg)):
         for m in METHODS:
             out[f"{m}|{fg_name}"] = iou(predict(m, image, fg, pose, skeleton), truth)
+    if apart is not None and apart.any():
+        for m in METHODS:
+            out[f"{m}|apart"] = iou(predict(m, image, true_fg, pose, skeleton, joint_overlaps=False), apart)
     return out
 
 
@@ -88,7 +96,10 @@ def score_sets(names: list[str], n: int, cache: Path, bvh: str | None, rows: boo
         for d in load_set(name, n, cache, bvh):
             if not d["union"].any():
                 continue
-            sc = score(d["image"], d["union"], d["fg"] > 127, d["pose"], d["skeleton"])
+            apart = union_of([m for m, p in zip(d["pair_masks"], d["pairs"] or []) if not p["adjacent"]],
+                             d["union"].shape)
+            sc = score(d["image"], d["union"], d["fg"] > 127, d["pose"], d["skeleton"], apart)
+            sc = {k: sc.get(k, np.nan) for k in COLUMNS}  # a keyframe with no apart overlap has no 'apart' score
             table["set"].append(name)
             table["label"].append(d["label"])
             table["style"].append(d["style"])
@@ -162,7 +173,7 @@ def sample_shots() -> dict[str, list]:
 
 def print_summary(table: dict[str, list], by: str, title: str, within: str | None = None) -> None:
     """Mean IoU per method, overall and per value of column `by` (only rows whose `set` is `within`)."""
-    cols = [f"{m}|{f}" for f in ("gt fg", "pred fg") for m in METHODS]
+    cols = [c for c in COLUMNS if c in table]
     keep = [i for i in range(len(table[by])) if within is None or table["set"][i] == within]
     if not keep:
         return
@@ -172,7 +183,7 @@ def print_summary(table: dict[str, list], by: str, title: str, within: str | Non
     groups = sorted({table[by][i] for i in keep}, key=lambda g: (SETS.index(g) if g in SETS else 0, g))
     for g in groups + ["**mean**"]:
         idx = [i for i in keep if table[by][i] == g or g == "**mean**"]
-        vals = [statistics.fmean(table[c][i] for i in idx) for c in cols]
+        vals = [float(np.nanmean([table[c][i] for i in idx])) for c in cols]
         print(f"| {g} | {len(idx)} | " + " | ".join(f"{v:.3f}" for v in vals) + " |")
 
 
@@ -199,14 +210,14 @@ def timing(repeats: int = 5) -> None:
               f" min {min(times):.3f} s over {repeats} runs (load average {os.getloadavg()[0]:.1f})")
 
 
-def end_to_end(shots: list[str]) -> None:
+def end_to_end(shots: list[str], methods: tuple[str, ...] = METHODS) -> None:
     """Mean interior PSNR per shot: ours with each predictor, RIFE-direct (each setting in its own home)."""
     from ops.evaluation.baselines import summarize
     from ops.settings import Settings
 
-    homes = {m: tempfile.mkdtemp(prefix=f"bench_occ_{m}_") for m in METHODS}
+    homes = {m: tempfile.mkdtemp(prefix=f"bench_occ_{m}_") for m in methods}
     results: dict[str, dict] = defaultdict(dict)
-    for m in METHODS:
+    for m in methods:
         os.environ["INBETWEEN_HOME"] = homes[m]  # read on every call (assets/home.py)
         from assets.runs import evaluate_stages, run_shot, store
 
@@ -223,10 +234,12 @@ def end_to_end(shots: list[str]) -> None:
             results[name][f"{m} regions"] = len(masks.occlusion)
             print(f"{name}: occlusion={m}: ours {psnr['ours']:.2f} dB, RIFE-direct {psnr['rife_direct']:.2f} dB "
                   f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    print("\n| shot | " + " | ".join(f"ours, {m}" for m in METHODS) + " | RIFE direct |\n|---|" + "---|" * len(METHODS) + "---|")
+    print("\n| shot | " + " | ".join(f"ours, {m}" for m in methods) + " | RIFE direct |\n|---|" + "---|" * len(methods) + "---|")
     for name in shots:
         r = results[name]
-        print(f"| {name} | " + " | ".join(f"{r[m]:.2f}" for m in METHODS) + f" | {r['rife_direct']:.2f} |")
+        print(f"| {name} | " + " | ".join(f"{r[m]:.2f} ({r[f'{m} regions']})" for m in methods)
+              + f" | {r['rife_direct']:.2f} |")
+    print("(in brackets: key1's occlusion regions)")
 
 
 # AnimatedDrawings skeletons carry no depth: z by eye from each drawing (smaller = nearer the viewer)
@@ -274,8 +287,8 @@ def overlay(image: np.ndarray, regions: list[np.ndarray], fronts: list[np.ndarra
 
 def real_drawings(realdev: Path, out_dir: Path) -> None:
     """Predicted masks on AnimatedDrawings characters (REALDEV_DIR/animated_drawings/charN), given the person-made
-    foreground and the predicted one: OUT/charN.png = drawing | drawing predictor (true fg) | (predicted fg) |
-    hybrid (predicted fg) | skeleton rule (true fg)."""
+    foreground and the predicted one, as the masks stage makes them: OUT/charN.png = drawing | drawing predictor
+    (true fg) | (predicted fg) | hybrid (predicted fg) | skeleton rule (true fg); front bones drawn thick."""
     import yaml
 
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -291,8 +304,8 @@ def real_drawings(realdev: Path, out_dir: Path) -> None:
         panels = [image]
         for fg, method in ((true_fg, "drawing"), (pred_fg, "drawing"), (pred_fg, "hybrid"), (true_fg, "skeleton")):
             t0 = time.perf_counter()
-            if method == "drawing":
-                regions, fronts, _ = drawing_occlusion(image, fg, pose, skeleton)
+            if method == "drawing":  # as the masks stage calls it: no pockets where joined bones meet
+                regions, fronts, _ = drawing_occlusion(image, fg, pose, skeleton, joint_overlaps=False)
             else:
                 regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
                 if method == "hybrid":
@@ -318,6 +331,8 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--no-fronts", action="store_true", help="skip the pair regions' fronts")
     ap.add_argument("--e2e", action="store_true", help="also run the sample shots end to end (slow)")
     ap.add_argument("--shots", nargs="*", default=list(OCCLUSION_SHOTS), help="shots for --e2e")
+    ap.add_argument("--e2e-methods", nargs="*", default=list(METHODS), choices=METHODS, help="predictors for --e2e")
+    ap.add_argument("--only-e2e", action="store_true", help="skip the validation sets, fronts, shots and timing")
     ap.add_argument("--real", type=Path, help="REALDEV_DIR: also write overlays of predicted masks on its real "
                                                "drawings (kept out of the repository)")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "occlusion_real",
@@ -325,6 +340,9 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     bvh = str(args.bvh) if args.bvh else None
     print(f"default predictor (Settings.occlusion): {Settings().occlusion}")
+    if args.only_e2e:
+        end_to_end(args.shots, tuple(args.e2e_methods))
+        return
     t0 = time.perf_counter()
     if args.rows:
         print("per keyframe IoU: " + "  ".join(f"{m}|{f}" for f in ("gt fg", "pred fg") for m in METHODS))
@@ -344,7 +362,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.real:
         real_drawings(args.real, args.out)
     if args.e2e:
-        end_to_end(args.shots)
+        end_to_end(args.shots, tuple(args.e2e_methods))
 
 
 if __name__ == "__main__":

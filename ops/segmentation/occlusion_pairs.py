@@ -48,9 +48,10 @@ class FrontReading:
 
 
 def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray) -> np.ndarray:
-    """(H, W, 2) int64 the two bones whose bodies are nearest at each pixel of a (H, W) bool mask, as (lower,
-    higher) index; -1 off the mask. Bodies reach REACH radii (+ REACH_PX) from their segment; a pixel no second
-    body reaches takes the second nearest bone. radii: (B,) body radii, pixels."""
+    """(H, W, 2) int64 the two bones whose bodies overlap at each pixel of a (H, W) bool mask, as (lower, higher)
+    index; -1 off the mask. The first is the body nearest the pixel (distance over its radius, among bodies that
+    reach it: REACH radii + REACH_PX); the second the nearest other body that reaches it and shares no joint with
+    the first (an occlusion, not a joint), else the second nearest. radii: (B,) body radii, pixels."""
     out = np.full(mask.shape + (2,), -1, np.int64)
     ys, xs = np.nonzero(mask)
     if len(xs) == 0 or len(skeleton.bones) < 2:
@@ -59,8 +60,14 @@ def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np
     dist = bone_distance_stack(np.stack([xs, ys], 1).astype(np.float32), ends)  # (B, N)
     reach = REACH * radii + REACH_PX
     ranked = np.where(dist <= reach[:, None], dist / np.maximum(radii[:, None], 1.0), dist + 1e6)
-    two = np.sort(np.argsort(ranked, axis=0, kind="stable")[:2], axis=0)
-    out[ys, xs, 0], out[ys, xs, 1] = two[0], two[1]
+    first = np.argmin(ranked, axis=0)
+    others = ranked.copy()
+    others[first, np.arange(len(xs))] = np.inf
+    second = np.argmin(others, axis=0)
+    apart = np.where(skeleton.adjacent_bones()[first], np.inf, others.T).T  # bodies not joined to the first
+    reaches = (apart < 1e5).any(axis=0)
+    second = np.where(reaches, np.argmin(apart, axis=0), second)
+    out[ys, xs, 0], out[ys, xs, 1] = np.minimum(first, second), np.maximum(first, second)
     return out
 
 

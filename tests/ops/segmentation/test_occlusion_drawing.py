@@ -16,9 +16,9 @@ from ops.segmentation.occlusion_drawing import (
     front_and_back,
     joined_pixels,
     predict_occlusion,
-    region_front_bones,
     to_uint8,
 )
+from ops.segmentation.occlusion_pairs import pair_regions
 from ops.types import Skeleton
 from tests.ops.segmentation.test_masks import crossing_scene, iou
 
@@ -29,8 +29,8 @@ def test_forearm_is_in_front_where_it_crosses_the_torso():
     ys, xs = np.nonzero(true)
     front, back = front_and_back(np.stack([xs, ys], 1), pose, skeleton, radii)
     assert (front == 3).mean() > 0.9 and (back == 0).mean() > 0.9  # forearm over torso
-    main, fronts = region_front_bones(true, pose, skeleton, radii)
-    assert main == 3 and 0 not in fronts
+    _, fronts, _ = pair_regions(true, drawing, segment_foreground(drawing, pose, skeleton).mask, pose, skeleton, radii)
+    assert [f.tolist() for f in fronts] == [[3]]
 
 
 def test_equal_depths_put_the_nearer_bone_in_front():
