@@ -26,7 +26,7 @@ from ops.segmentation.contacts import drawn_bodies, stroke_reach
 from ops.segmentation.network_input import from_work, network_input, resample, to_work
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.segmentation.occlusion_infer import occlusion_logits
-from ops.segmentation.occlusion_pairs import pair_regions
+from ops.segmentation.occlusion_pairs import bone_pairs, pair_regions
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import Skeleton
 
@@ -81,12 +81,15 @@ def joined_pixels(mask: np.ndarray, foreground: np.ndarray, pose: np.ndarray, sk
     neighbouring bone whose body holds the pixel (spine - clavicle - upper arm; a thick tail's short segments,
     each over the next but one). That is a joint the mesh bends at, not an occlusion; a pocket there opened as
     a dark blob when the limb moved, and a curled tail's joints made one pocket of the whole tail.
-    radii: (B,) body radii, pixels."""
+    The two bones are the pair regions' (occlusion_pairs.bone_pairs): the nearest body and the nearest body not
+    joined to it, so a forearm lying across the belly near its own elbow is the forearm over the belly, not the
+    forearm at the elbow. radii: (B,) body radii, pixels."""
     ys, xs = np.nonzero(mask)
     out = np.zeros(mask.shape, bool)
     if len(xs) == 0 or len(skeleton.bones) < 2:
         return out
-    front, back = front_and_back(np.stack([xs, ys], axis=1), pose, skeleton, radii)
+    pairs = bone_pairs(mask, pose, skeleton, radii)
+    front, back = pairs[ys, xs, 0], pairs[ys, xs, 1]
     adjacent = skeleton.adjacent_bones()
     joined = adjacent[front, back]
     between = adjacent[front] & adjacent[back]  # (N, B) bones next to both

@@ -29,7 +29,7 @@ HEAD_WIDTH = 12
 BN_EPS = 1e-5  # torch.nn.BatchNorm2d's default
 WEIGHTS_PATH = Path(__file__).with_name("occlusion_unet.npz")
 # sha256 of WEIGHTS_PATH: a retrained network changes this module, hence the code version of the stages using it
-WEIGHTS_SHA256 = "1eb869871054638ce8905563fb882d5fb8d4102c75b1312e6cb1dbbfd951dbbc"
+WEIGHTS_SHA256 = "70fab8ba16e75c28dbe97a0fda25c506b0988482be404301ac5407789482e615"
 
 # (name in the weights file, stride, padding, dilation) of each conv + BatchNorm + ReLU, in forward order
 _ENCODER = {

@@ -26,6 +26,7 @@ from ops.types import Skeleton
 REACH = 1.5  # a bone's body reaches this many body radii (+ REACH_PX) from its segment (occlusion_drawing's rule)
 REACH_PX = 3.0
 MIN_REGION_PX = 12  # smaller pair regions are noise (the ground truth's own minimum overlap)
+MIN_REGION_SHARE = 0.02  # a piece of a pair smaller than this share of the mask joins the region it borders
 CONTRAST_PX = 2  # an outline is read within this distance (grows with the drawing) of the region's boundary
 SILHOUETTE_PX = 2  # boundary pixels this near the paper are the character's outline, drawn whoever is in front
 RIM_TOL, RIM_TOL_PX = 0.35, 2.0  # a pixel this near (share of the radius, at least px) the slim body's rim is on it
@@ -51,7 +52,8 @@ def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np
     """(H, W, 2) int64 the two bones whose bodies overlap at each pixel of a (H, W) bool mask, as (lower, higher)
     index; -1 off the mask. The first is the body nearest the pixel (distance over its radius, among bodies that
     reach it: REACH radii + REACH_PX); the second the nearest other body that reaches it and shares no joint with
-    the first (an occlusion, not a joint), else the second nearest. radii: (B,) body radii, pixels."""
+    the first (an occlusion, not a joint), else the second nearest. Bones shorter than their radius come last.
+    radii: (B,) body radii, pixels."""
     out = np.full(mask.shape + (2,), -1, np.int64)
     ys, xs = np.nonzero(mask)
     if len(xs) == 0 or len(skeleton.bones) < 2:
@@ -60,12 +62,16 @@ def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np
     dist = bone_distance_stack(np.stack([xs, ys], 1).astype(np.float32), ends)  # (B, N)
     reach = REACH * radii + REACH_PX
     ranked = np.where(dist <= reach[:, None], dist / np.maximum(radii[:, None], 1.0), dist + 1e6)
+    # a bone shorter than its body is thick (a clavicle, a hip bone, AnimatedDrawings' root-hip) joins bodies and
+    # is none: its radius is read off the body around it. It takes a pixel only where no longer bone reaches.
+    length = np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+    ranked[length < radii] += 1e3
     first = np.argmin(ranked, axis=0)
     others = ranked.copy()
     others[first, np.arange(len(xs))] = np.inf
     second = np.argmin(others, axis=0)
     apart = np.where(skeleton.adjacent_bones()[first], np.inf, others.T).T  # bodies not joined to the first
-    reaches = (apart < 1e5).any(axis=0)
+    reaches = (apart < 1e6).any(axis=0)
     second = np.where(reaches, np.argmin(apart, axis=0), second)
     out[ys, xs, 0], out[ys, xs, 1] = np.minimum(first, second), np.maximum(first, second)
     return out
@@ -73,23 +79,44 @@ def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np
 
 def pair_components(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
                     ) -> list[tuple[int, int, np.ndarray]]:
-    """(bone a, bone b, (H, W) bool region) for every pair of bones that share pixels of a (H, W) bool mask:
-    the pixels where those two bodies are nearest, one region per pair (its largest piece and every piece of at
-    least MIN_REGION_PX); pairs with fewer than MIN_REGION_PX pixels are left out."""
+    """(bone a, bone b, (H, W) bool region) for every pair of bones that share pixels of a (H, W) bool mask.
+
+    Each pixel's pair (bone_pairs) is smoothed by a majority over a window about the slimmest body's radius, so
+    that where two pairs are equally near (thighs side by side under a belly) the region does not break into
+    specks; a piece smaller than the larger of MIN_REGION_PX and MIN_REGION_SHARE of the mask joins the region
+    it borders most (or is dropped when it borders none)."""
     pairs = bone_pairs(mask, pose, skeleton, radii)
-    key = np.where(mask, pairs[..., 0] * len(skeleton.bones) + pairs[..., 1], -1)
-    out = []
+    n_bones = len(skeleton.bones)
+    key = np.where(mask, pairs[..., 0] * n_bones + pairs[..., 1], -1)
+    keys = np.unique(key[key >= 0])
+    if len(keys) > 1:
+        size = 2 * int(np.clip(np.median(radii), 2, 8)) + 1
+        votes = np.stack([ndimage.uniform_filter((key == k).astype(np.float32), size) for k in keys])
+        key = np.where(mask, keys[np.argmax(votes, axis=0)], -1)
+    labels = np.zeros(mask.shape, np.int64)
+    owner: list[int] = []
     for k in np.unique(key[key >= 0]):
-        region = key == k
-        if region.sum() < MIN_REGION_PX:
+        pieces, n = ndimage.label(key == k, structure=np.ones((3, 3), bool))
+        labels[pieces > 0] = pieces[pieces > 0] + len(owner)
+        owner += [int(k)] * n
+    sizes = np.bincount(labels.ravel(), minlength=len(owner) + 1)
+    small = max(MIN_REGION_PX, MIN_REGION_SHARE * int(mask.sum()))
+    for piece in np.argsort(sizes[1:], kind="stable") + 1:  # smallest first: a speck joins its neighbour
+        if sizes[piece] >= small or sizes[piece] == 0:
             continue
-        labels, n = ndimage.label(region, structure=np.ones((3, 3), bool))
-        if n > 1:  # specks of a pair far from its main overlap are noise
-            sizes = np.bincount(labels.ravel())[1:]
-            keep = np.nonzero((sizes >= MIN_REGION_PX) | (sizes == sizes.max()))[0] + 1
-            region = np.isin(labels, keep)
-        a, b = divmod(int(k), len(skeleton.bones))
-        out.append((a, b, region))
+        inside = labels == piece
+        ring = labels[ndimage.binary_dilation(inside, np.ones((3, 3), bool)) & ~inside]
+        ring = ring[(ring > 0) & (ring != piece)]
+        labels[inside] = np.bincount(ring).argmax() if len(ring) else 0
+        if len(ring):
+            sizes[labels[inside][0]] += sizes[piece]
+        sizes[piece] = 0
+    out = []
+    for k in sorted(set(owner)):
+        region = np.isin(labels, [i + 1 for i, o in enumerate(owner) if o == k])
+        if region.sum() >= MIN_REGION_PX:
+            a, b = divmod(k, n_bones)
+            out.append((a, b, region))
     return out
 
 
@@ -176,7 +203,7 @@ def pair_regions(mask: np.ndarray, drawing: np.ndarray | None, foreground: np.nd
                 f"{depth[back]:.2f} < {depth[seen]:.2f}); the drawing's reading is used; fix: give "
                 f"{bone_name(skeleton, seen)}'s joints a smaller z than {bone_name(skeleton, back)}'s, or paint an "
                 "occlusion mask")
-        elif seen < 0 and by_z < 0:
+        elif seen < 0 and by_z < 0 and not skeleton.adjacent_bones()[a, b]:  # a joint's order does not matter
             warnings.append(f"{source}: bones {bone_name(skeleton, a)} and {bone_name(skeleton, b)} overlap with "
                             "equal depths and the drawing does not show which is in front; "
                             f"{bone_name(skeleton, a)} is taken; fix: give their joints different z")
