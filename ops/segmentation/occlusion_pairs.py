@@ -51,8 +51,10 @@ class FrontReading:
 def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray) -> np.ndarray:
     """(H, W, 2) int64 the two bones whose bodies overlap at each pixel of a (H, W) bool mask, as (lower, higher)
     index; -1 off the mask. The first is the body nearest the pixel (distance over its radius, among bodies that
-    reach it: REACH radii + REACH_PX); the second the nearest other body that reaches it and shares no joint with
-    the first (an occlusion, not a joint), else the second nearest. Bones shorter than their radius come last.
+    reach it: REACH radii + REACH_PX); the second the nearest other body, or, where the pixel lies within the
+    radius of a body that shares no joint with the first, the nearest such (a forearm across the belly near its
+    own elbow is over the belly; a knee beside the other knee is still a knee). Bones shorter than their radius
+    come last.
     radii: (B,) body radii, pixels."""
     out = np.full(mask.shape + (2,), -1, np.int64)
     ys, xs = np.nonzero(mask)
@@ -71,8 +73,10 @@ def bone_pairs(mask: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np
     others[first, np.arange(len(xs))] = np.inf
     second = np.argmin(others, axis=0)
     apart = np.where(skeleton.adjacent_bones()[first], np.inf, others.T).T  # bodies not joined to the first
-    reaches = (apart < 1e6).any(axis=0)
-    second = np.where(reaches, np.argmin(apart, axis=0), second)
+    nearest_apart = np.argmin(apart, axis=0)
+    cols = np.arange(len(xs))
+    inside = dist[nearest_apart, cols] <= radii[nearest_apart]  # the pixel lies within that body's radius
+    second = np.where(inside & np.isfinite(apart[nearest_apart, cols]), nearest_apart, second)
     out[ys, xs, 0], out[ys, xs, 1] = np.minimum(first, second), np.maximum(first, second)
     return out
 
