@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.segmentation.bones import bone_depths
+from ops.segmentation.bones import bone_depths, thick_regions
 from ops.segmentation.contacts import scale_of
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import Skeleton
@@ -27,6 +27,7 @@ REACH = 1.5  # a bone's body reaches this many body radii (+ REACH_PX) from its 
 REACH_PX = 3.0
 MIN_REGION_PX = 12  # smaller pair regions are noise (the ground truth's own minimum overlap)
 MIN_REGION_SHARE = 0.02  # a piece of a pair smaller than this share of the mask joins the region it borders
+NEIGHBOUR_SHARE = 0.1  # a neighbour of the front bone whose body covers this share of the region is in front too
 CONTRAST_PX = 2  # an outline is read within this distance (grows with the drawing) of the region's boundary
 SILHOUETTE_PX = 2  # boundary pixels this near the paper are the character's outline, drawn whoever is in front
 RIM_TOL, RIM_TOL_PX = 0.35, 2.0  # a pixel this near (share of the radius, at least px) the slim body's rim is on it
@@ -178,6 +179,22 @@ def read_front(region: np.ndarray, a: int, b: int, contrast: np.ndarray, foregro
     return reading
 
 
+def with_neighbours(front: int, back: int, region: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
+                    skeleton: Skeleton, cache: dict) -> np.ndarray:
+    """(f,) int64 front bones of a pair region: the front bone and each of its neighbours (not the back bone nor
+    one of its) whose body covers NEIGHBOUR_SHARE of the region, as the skeleton rule has them, so the upper arm's
+    handles at the elbow stay on the front sheet with the forearm's. cache keeps the bodies between regions."""
+    adjacent = skeleton.adjacent_bones()
+    near = [int(n) for n in np.nonzero(adjacent[front] & ~adjacent[back])[0] if n != front]
+    if not near:
+        return np.array([front], np.int64)
+    if "thick" not in cache:
+        cache["thick"] = thick_regions(foreground, pose, skeleton)
+    area = max(int(region.sum()), 1)
+    joined = [n for n in near if (cache["thick"][n] & region).sum() >= NEIGHBOUR_SHARE * area]
+    return np.array(sorted({front, *joined}), np.int64)
+
+
 def bone_name(skeleton: Skeleton, b: int) -> str:
     """'parent-child' joint names of bone b."""
     p, c = skeleton.bones[b]
@@ -187,13 +204,14 @@ def bone_name(skeleton: Skeleton, b: int) -> str:
 def pair_regions(mask: np.ndarray, drawing: np.ndarray | None, foreground: np.ndarray, pose: np.ndarray,
                  skeleton: Skeleton, radii: np.ndarray, source: str = "drawing"
                  ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
-    """One region per overlapping bone pair of a (H, W) bool occlusion mask, back to front, its (1,) int64 front
-    bone, and warnings. drawing: (H, W, C) float32 (0-1) or uint8 (None: z alone decides); foreground: (H, W)
+    """One region per overlapping bone pair of a (H, W) bool occlusion mask, back to front, its (f,) int64 front
+    bones (the pair's front bone and its neighbours there, with_neighbours), and warnings. drawing: (H, W, C) float32 (0-1) or uint8 (None: z alone decides); foreground: (H, W)
     bool; pose: (J, 3) pixels and depth (larger = farther); radii: (B,) body radii, pixels; source names the
     keyframe in warnings."""
     depth = bone_depths(pose, skeleton)
     contrast = None if drawing is None else outline_contrast(drawing)
     regions, fronts, keys, warnings = [], [], [], []
+    cache: dict = {}
     for a, b, region in pair_components(mask, pose, skeleton, radii):
         by_z = a if depth[a] < depth[b] else b if depth[b] < depth[a] else -1
         seen = read_front(region, a, b, contrast, foreground, pose, skeleton, radii).front if contrast is not None \
@@ -212,7 +230,7 @@ def pair_regions(mask: np.ndarray, drawing: np.ndarray | None, foreground: np.nd
                             "equal depths and the drawing does not show which is in front; "
                             f"{bone_name(skeleton, a)} is taken; fix: give their joints different z")
         regions.append(region)
-        fronts.append(np.array([front], np.int64))
+        fronts.append(with_neighbours(front, b if front == a else a, region, foreground, pose, skeleton, cache))
         keys.append(-depth[front])  # larger z (farther) first: back to front
     order = np.argsort(np.array(keys), kind="stable")
     return [regions[i] for i in order], [fronts[i] for i in order], warnings
