@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.segmentation.bones import bone_depths, thick_regions
+from ops.segmentation.bones import bone_depths, bone_radii, thick_regions
 from ops.segmentation.contacts import scale_of
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import Skeleton
@@ -195,6 +195,42 @@ def with_neighbours(front: int, back: int, region: np.ndarray, foreground: np.nd
     return np.array(sorted({front, *joined}), np.int64)
 
 
+def contradiction(source: str, skeleton: Skeleton, seen: int, back: int, depth: np.ndarray) -> str:
+    """The one warning line when the drawing puts bone `seen` in front of `back` and z says the opposite."""
+    s, k = bone_name(skeleton, seen), bone_name(skeleton, back)
+    return (f"{source}: bones {s} and {k} overlap; the drawing shows {s} in front but z says {k} (z {depth[back]:.2f} "
+            f"< {depth[seen]:.2f}); the drawing's reading is used; fix: give {s}'s joints a smaller z than {k}'s, "
+            "or paint an occlusion mask")
+
+
+def check_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], drawing: np.ndarray, foreground: np.ndarray,
+                 pose: np.ndarray, skeleton: Skeleton, source: str = "drawing") -> tuple[list[np.ndarray], list[str]]:
+    """The (b,) int64 front bones of other predictors' (H, W) bool regions (the skeleton rule's, the hybrid's), each
+    checked against the drawing: where the region's main bone pair (its largest pair component) shows the other
+    bone's outline running through it, that bone and its neighbours there are the front, with the warning that
+    names both. drawing: (H, W, C) float32 (0-1) or uint8; foreground: (H, W) bool; pose: (J, 3)."""
+    if not regions:
+        return list(fronts), []
+    radii = bone_radii(foreground, pose, skeleton)
+    depth = bone_depths(pose, skeleton)
+    contrast = outline_contrast(drawing)
+    out, warnings, cache = [], [], {}
+    for region, front in zip(regions, fronts):
+        parts = pair_components(region, pose, skeleton, radii)
+        if not parts:
+            out.append(front)
+            continue
+        a, b, piece = max(parts, key=lambda p: int(p[2].sum()))
+        seen = read_front(piece, a, b, contrast, foreground, pose, skeleton, radii).front
+        back = b if seen == a else a
+        if seen >= 0 and seen not in front and back in front:
+            warnings.append(contradiction(source, skeleton, seen, back, depth))
+            out.append(with_neighbours(seen, back, region, foreground, pose, skeleton, cache))
+        else:
+            out.append(front)
+    return out, warnings
+
+
 def bone_name(skeleton: Skeleton, b: int) -> str:
     """'parent-child' joint names of bone b."""
     p, c = skeleton.bones[b]
@@ -218,13 +254,7 @@ def pair_regions(mask: np.ndarray, drawing: np.ndarray | None, foreground: np.nd
             else -1
         front = seen if seen >= 0 else by_z if by_z >= 0 else a
         if seen >= 0 and by_z >= 0 and seen != by_z:
-            back = b if seen == a else a
-            warnings.append(
-                f"{source}: bones {bone_name(skeleton, seen)} and {bone_name(skeleton, back)} overlap; the drawing "
-                f"shows {bone_name(skeleton, seen)} in front but z says {bone_name(skeleton, back)} (z "
-                f"{depth[back]:.2f} < {depth[seen]:.2f}); the drawing's reading is used; fix: give "
-                f"{bone_name(skeleton, seen)}'s joints a smaller z than {bone_name(skeleton, back)}'s, or paint an "
-                "occlusion mask")
+            warnings.append(contradiction(source, skeleton, seen, b if seen == a else a, depth))
         elif seen < 0 and by_z < 0 and not skeleton.adjacent_bones()[a, b]:  # a joint's order does not matter
             warnings.append(f"{source}: bones {bone_name(skeleton, a)} and {bone_name(skeleton, b)} overlap with "
                             "equal depths and the drawing does not show which is in front; "

@@ -112,3 +112,24 @@ def test_equal_depths_and_no_evidence_warn():
     p[:, 2] = 0.0
     _, fronts, warnings = pair_regions(true, None, fg, p, skeleton, radii)
     assert len(fronts) == 1 and len(warnings) == 1 and "equal depths" in warnings[0]
+
+
+def test_the_hybrid_regions_fronts_follow_the_drawing():
+    """check_fronts: the skeleton rule's region over the crossing, its front taken from a wrong z (the torso), is
+    turned to the forearm the drawing shows in front, with the warning; a right z is left alone, silently."""
+    from ops.segmentation.occlusion import predict_occlusion
+    from ops.segmentation.occlusion_pairs import check_fronts
+
+    pose, skeleton, true, fg, torso, arm = scene()
+    drawing = ink_drawing((outline(torso) & ~arm) | outline(arm))
+    wrong = pose.copy()
+    wrong[2:, 2] = 1.0
+    regions, fronts, _ = predict_occlusion(fg, wrong, skeleton)
+    crossing = max(range(len(regions)), key=lambda i: (regions[i] & true).sum())
+    assert FOREARM not in fronts[crossing]
+    checked, warnings = check_fronts(regions, fronts, drawing, fg, wrong, skeleton, "key1.png")
+    assert FOREARM in checked[crossing] and TORSO not in checked[crossing]
+    assert len(warnings) == 1 and "elbow-hand" in warnings[0] and "hips-neck" in warnings[0]
+    regions, fronts, _ = predict_occlusion(fg, pose, skeleton)
+    checked, warnings = check_fronts(regions, fronts, drawing, fg, pose, skeleton)
+    assert warnings == [] and all(np.array_equal(a, b) for a, b in zip(checked, fronts))
