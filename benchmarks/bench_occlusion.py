@@ -52,7 +52,7 @@ from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occl
 from ops.segmentation.occlusion_pairs import outline_contrast, pair_components, read_front  # noqa: E402
 from ops.settings import Settings  # noqa: E402
 from ops.types import Skeleton  # noqa: E402
-from tools.occlusion_eval import SET_NOTES, SETS, iou, load_set, union_of  # noqa: E402
+from tools.occlusion_eval import SET_NOTES, SETS, iou, load_set, union_of, use_weights  # noqa: E402
 
 OCCLUSION_SHOTS = ("arm_cross", "legs_cross", "tail", "two_poses", "watercolour", "flat_colour", "scan_jpeg",
                    "hand_on_hip", "lamp", "curled_tail")  # every sample shot with an occlusion in a keyframe
@@ -337,8 +337,12 @@ def main(argv: list[str] | None = None) -> None:
                                                "drawings (kept out of the repository)")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "occlusion_real",
                     help="where --real writes its overlays")
+    ap.add_argument("--weights", type=Path, default=None,
+                    help="a candidate weights file for the network (default: the shipped one), e.g. an older one")
     args = ap.parse_args(argv)
     bvh = str(args.bvh) if args.bvh else None
+    if args.weights:
+        print(f"network weights {args.weights} (sha256 {use_weights(args.weights)})")
     print(f"default predictor (Settings.occlusion): {Settings().occlusion}")
     if args.only_e2e:
         end_to_end(args.shots, tuple(args.e2e_methods))
