@@ -1,17 +1,26 @@
-"""Occlusion masks (issue 15): IoU of the drawing predictor, the hybrid and the skeleton rule, timing, end to end.
+"""Occlusion masks: IoU of the drawing predictor, the hybrid and the skeleton rule on data never trained on, the
+pair regions' fronts, timing, real drawings, end to end.
 
-    python benchmarks/bench_occlusion.py                       # 100 test samples, the sample shots' keys, timing
-    python benchmarks/bench_occlusion.py --n 250 --rows        # more samples, one row per keyframe
-    python benchmarks/bench_occlusion.py --e2e --shots arm_cross legs_cross   # + end to end (slow: minutes a shot)
+    python benchmarks/bench_occlusion.py --cache /tmp/occ_cache --bvh BVH_DIR      # every set, 60 samples each
+    python benchmarks/bench_occlusion.py --cache C --n 100 --sets "2d test"         # one set, more samples
+    python benchmarks/bench_occlusion.py --real REALDEV_DIR                          # + overlays of real drawings
+    python benchmarks/bench_occlusion.py --e2e --shots arm_cross legs_cross         # + end to end (slow: minutes a shot)
+
+The validation sets (tools/occlusion_eval.py) come from the generators' test splits, which training and tuning
+never see: the 2D generator's (today's benchmark), and the 3D generator's seen families and its two held-out
+families (a body family and a style family no training sample has). BVH_DIR: the folder of .bvh clips the
+training data had (the AnimatedDrawings clips); REALDEV_DIR: a folder holding AnimatedDrawings' example
+characters as animated_drawings/char1 ... (char_cfg.yaml, texture.png, mask.png; MIT), kept out of the
+repository.
 
 IoU is per keyframe with an occlusion: the union of the predicted regions against the union of the ground
-truth (issue-15 definition: every overlap of a nearer part over a farther one, joint overlaps included).
-Every predictor runs twice: given the true foreground (so the numbers do not depend on the foreground
-segmentation) and given the foreground that ops.segmentation.foreground predicts. The test split
-(seeds 10 000 000 + index) is never used for training or tuning.
-
-The hybrid (the default) is the skeleton rule's regions cut to the network's marks
-(ops.segmentation.occlusion_drawing.shape_by_drawing).
+truth (every overlap of a nearer part over a farther one, joint overlaps included). Every predictor runs twice:
+given the true foreground (so the numbers do not depend on the foreground segmentation) and given the
+foreground that ops.segmentation.foreground predicts. `drawing` is the network's pair regions
+(occlusion_drawing.predict_occlusion), `hybrid` the skeleton rule's regions cut to the network's marks or the
+strokes (shape_by_drawing), `skeleton` the rule alone. Fronts: for every true overlap of two bones that share
+no joint (40 px or more), the drawing predictor's pair region over it: is its front bone the true one, read off
+the drawing or from z, and how often the drawing spoke.
 
 End to end (--e2e): each shot runs through the whole graph with Settings(occlusion=m) for every predictor m in
 a private INBETWEEN_HOME, then its evaluation group; printed are the mean PSNR over the interior frames of ours
@@ -35,35 +44,28 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from ops.segmentation.bones import bone_depths  # noqa: E402
 from ops.segmentation.foreground import segment_foreground  # noqa: E402
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion  # noqa: E402
+from ops.segmentation.occlusion_drawing import occlusion_marks, shape_by_drawing  # noqa: E402
 from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion  # noqa: E402
-from ops.segmentation.occlusion_drawing import shape_by_drawing  # noqa: E402
+from ops.segmentation.occlusion_pairs import outline_contrast, pair_components, read_front  # noqa: E402
+from ops.settings import Settings  # noqa: E402
 from ops.types import Skeleton  # noqa: E402
+from tools.occlusion_eval import SET_NOTES, SETS, iou, load_set, union_of, use_weights  # noqa: E402
 
 OCCLUSION_SHOTS = ("arm_cross", "legs_cross", "tail", "two_poses", "watercolour", "flat_colour", "scan_jpeg",
                    "hand_on_hip", "lamp", "curled_tail")  # every sample shot with an occlusion in a keyframe
 METHODS = ("drawing", "hybrid", "skeleton")
+COLUMNS = [f"{m}|{f}" for f in ("gt fg", "pred fg", "apart") for m in METHODS]
 
 
-def iou(a: np.ndarray, b: np.ndarray) -> float:
-    """Intersection over union of two (H, W) bool masks (1 when both are empty)."""
-    union = (a | b).sum()
-    return float((a & b).sum() / union) if union else 1.0
-
-
-def union_of(regions: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
-    """(H, W) bool union of predicted regions."""
-    out = np.zeros(shape, bool)
-    for r in regions:
-        out |= r
-    return out
-
-
-def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(H, W) bool union of `method`'s regions on a (H, W, 3) uint8 drawing."""
+def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+            joint_overlaps: bool = True) -> np.ndarray:
+    """(H, W) bool union of `method`'s regions on a (H, W, 3) uint8 drawing (joint_overlaps False: the drawing
+    predictor as the masks stage calls it; the other two leave joints out anyway)."""
     if method == "drawing":
-        regions = drawing_occlusion(image, fg, pose, skeleton)[0]
+        regions = drawing_occlusion(image, fg, pose, skeleton, joint_overlaps=joint_overlaps)[0]
     else:
         regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
         if method == "hybrid":
@@ -71,36 +73,80 @@ def predict(method: str, image: np.ndarray, fg: np.ndarray, pose: np.ndarray, sk
     return union_of(regions, fg.shape)
 
 
-def score(image: np.ndarray, truth: np.ndarray, true_fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton
-          ) -> dict[str, float]:
-    """IoU of each method given the true and the predicted foreground: {'drawing|gt fg': ..., ...}."""
+def score(image: np.ndarray, truth: np.ndarray, true_fg: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+          apart: np.ndarray | None = None) -> dict[str, float]:
+    """IoU of each method given the true and the predicted foreground: {'drawing|gt fg': ..., ...}; with `apart`
+    (the truth's overlaps of bones that share no joint) also 'm|apart', each method as the masks stage runs it
+    (no joint overlaps) against that, given the true foreground."""
     pred_fg = segment_foreground(image.astype(np.float32) / 255.0, pose, skeleton).mask
     out = {}
     for fg_name, fg in (("gt fg", true_fg), ("pred fg", pred_fg)):
         for m in METHODS:
             out[f"{m}|{fg_name}"] = iou(predict(m, image, fg, pose, skeleton), truth)
+    if apart is not None and apart.any():
+        for m in METHODS:
+            out[f"{m}|apart"] = iou(predict(m, image, true_fg, pose, skeleton, joint_overlaps=False), apart)
     return out
 
 
-def test_split(n: int, start: int, rows: bool) -> dict[str, list]:
-    """Score test samples start .. start + n - 1; prints a row per keyframe when `rows`; returns the scores."""
-    from data_samples.generator.occlusion_set import make_sample
-
+def score_sets(names: list[str], n: int, cache: Path, bvh: str | None, rows: bool) -> dict[str, list]:
+    """Score n samples of each validation set; a row per keyframe when `rows`; returns the scores by column."""
     table = defaultdict(list)
-    for i in range(start, start + n):
-        s = make_sample("test", i)
-        skeleton = Skeleton(tuple(s.joints), np.asarray(s.parents, np.int64))
-        if not s.occlusion_union.any():
-            continue
-        sc = score(s.image, s.occlusion_union, s.foreground > 0.5, s.pose, skeleton)
-        table["label"].append(s.label)
-        table["style"].append(s.style)
-        for k, v in sc.items():
-            table[k].append(v)
-        if rows:
-            print(f"test {i:4d}  {s.label:20s} {s.style:12s} " + "  ".join(f"{v:.3f}" for v in sc.values()),
-                  flush=True)
+    for name in names:
+        for d in load_set(name, n, cache, bvh):
+            if not d["union"].any():
+                continue
+            apart = union_of([m for m, p in zip(d["pair_masks"], d["pairs"] or []) if not p["adjacent"]],
+                             d["union"].shape)
+            sc = score(d["image"], d["union"], d["fg"] > 127, d["pose"], d["skeleton"], apart)
+            sc = {k: sc.get(k, np.nan) for k in COLUMNS}  # a keyframe with no apart overlap has no 'apart' score
+            table["set"].append(name)
+            table["label"].append(d["label"])
+            table["style"].append(d["style"])
+            table["view"].append(d["view"] or "-")
+            for k, v in sc.items():
+                table[k].append(v)
+            if rows:
+                print(f"{name:18s} {d['label']:20s} {d['style']:12s} " + "  ".join(f"{v:.3f}" for v in sc.values()),
+                      flush=True)
     return table
+
+
+def front_accuracy(names: list[str], n: int, cache: Path, bvh: str | None) -> None:
+    """Per set: of the true overlaps of two bones that share no joint (>= 40 px), how often the drawing
+    predictor's region for that bone pair exists and has the true front; how often the drawing spoke, how often
+    it was right then, and how often z alone is right on the same regions (true foreground)."""
+    print("\nFronts of the pair regions (true overlaps of bones that share no joint, >= 40 px; true foreground)\n")
+    print("| set | pairs | region found | front right | drawing spoke | drawing right | z alone right |")
+    print("|---|---|---|---|---|---|---|")
+    for name in names:
+        c = defaultdict(int)
+        for d in load_set(name, n, cache, bvh):
+            sk, fg, pose = d["skeleton"], d["fg"] > 127, d["pose"]
+            truth = [(m, p) for m, p in zip(d["pair_masks"], d["pairs"] or []) if not p["adjacent"] and p["pixels"] >= 40]
+            if not truth:
+                continue
+            mask, radii, _ = occlusion_marks(d["image"], fg, pose, sk)
+            contrast = outline_contrast(d["image"])
+            found = {(a, b): (region, read_front(region, a, b, contrast, fg, pose, sk, radii).front)
+                     for a, b, region in pair_components(mask, pose, sk, radii)}
+            depth = bone_depths(pose, sk)
+            for m, p in truth:
+                c["pairs"] += 1
+                key = tuple(sorted((p["front_bone"], p["back_bone"])))
+                if key not in found or (found[key][0] & m).sum() < 0.3 * m.sum():
+                    continue
+                seen = found[key][1]
+                by_z = min(key, key=lambda b: depth[b])
+                c["found"] += 1
+                c["right"] += int((seen if seen >= 0 else by_z) == p["front_bone"])
+                c["z right"] += int(by_z == p["front_bone"])
+                c["spoke"] += int(seen >= 0)
+                c["spoke right"] += int(seen == p["front_bone"])
+        f = max(c["found"], 1)
+        print(f"| {name} {SET_NOTES.get(name, '')} | {c['pairs']} | {c['found'] / max(c['pairs'], 1):.3f} | "
+              f"{c['right'] / f:.3f} | {c['spoke'] / f:.3f} | {c['spoke right'] / max(c['spoke'], 1):.3f} | "
+              f"{c['z right'] / f:.3f} |")
 
 
 def sample_shots() -> dict[str, list]:
@@ -125,16 +171,19 @@ def sample_shots() -> dict[str, list]:
     return table
 
 
-def print_summary(table: dict[str, list], by: str, title: str) -> None:
-    """Mean IoU per method, overall and per value of column `by`."""
-    cols = [f"{m}|{f}" for f in ("gt fg", "pred fg") for m in METHODS]
+def print_summary(table: dict[str, list], by: str, title: str, within: str | None = None) -> None:
+    """Mean IoU per method, overall and per value of column `by` (only rows whose `set` is `within`)."""
+    cols = [c for c in COLUMNS if c in table]
+    keep = [i for i in range(len(table[by])) if within is None or table["set"][i] == within]
+    if not keep:
+        return
     print(f"\n{title}\n")
     print(f"| {by} | n | " + " | ".join(cols) + " |")
     print("|---|---|" + "---|" * len(cols))
-    groups = sorted(set(table[by]))
+    groups = sorted({table[by][i] for i in keep}, key=lambda g: (SETS.index(g) if g in SETS else 0, g))
     for g in groups + ["**mean**"]:
-        idx = [i for i, v in enumerate(table[by]) if v == g or g == "**mean**"]
-        vals = [statistics.fmean(table[c][i] for i in idx) for c in cols]
+        idx = [i for i in keep if table[by][i] == g or g == "**mean**"]
+        vals = [float(np.nanmean([table[c][i] for i in idx])) for c in cols]
         print(f"| {g} | {len(idx)} | " + " | ".join(f"{v:.3f}" for v in vals) + " |")
 
 
@@ -161,14 +210,14 @@ def timing(repeats: int = 5) -> None:
               f" min {min(times):.3f} s over {repeats} runs (load average {os.getloadavg()[0]:.1f})")
 
 
-def end_to_end(shots: list[str]) -> None:
+def end_to_end(shots: list[str], methods: tuple[str, ...] = METHODS) -> None:
     """Mean interior PSNR per shot: ours with each predictor, RIFE-direct (each setting in its own home)."""
     from ops.evaluation.baselines import summarize
     from ops.settings import Settings
 
-    homes = {m: tempfile.mkdtemp(prefix=f"bench_occ_{m}_") for m in METHODS}
+    homes = {m: tempfile.mkdtemp(prefix=f"bench_occ_{m}_") for m in methods}
     results: dict[str, dict] = defaultdict(dict)
-    for m in METHODS:
+    for m in methods:
         os.environ["INBETWEEN_HOME"] = homes[m]  # read on every call (assets/home.py)
         from assets.run import evaluate_stages, run_shot, store
 
@@ -185,13 +234,14 @@ def end_to_end(shots: list[str]) -> None:
             results[name][f"{m} regions"] = len(masks.occlusion)
             print(f"{name}: occlusion={m}: ours {psnr['ours']:.2f} dB, RIFE-direct {psnr['rife_direct']:.2f} dB "
                   f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    print("\n| shot | " + " | ".join(f"ours, {m}" for m in METHODS) + " | RIFE direct |\n|---|" + "---|" * len(METHODS) + "---|")
+    print("\n| shot | " + " | ".join(f"ours, {m}" for m in methods) + " | RIFE direct |\n|---|" + "---|" * len(methods) + "---|")
     for name in shots:
         r = results[name]
-        print(f"| {name} | " + " | ".join(f"{r[m]:.2f}" for m in METHODS) + f" | {r['rife_direct']:.2f} |")
+        print(f"| {name} | " + " | ".join(f"{r[m]:.2f} ({r[f'{m} regions']})" for m in methods)
+              + f" | {r['rife_direct']:.2f} |")
+    print("(in brackets: key1's occlusion regions)")
 
 
-REALDEV = ROOT.parent / "shared" / "realdev" / "animated_drawings"
 # AnimatedDrawings skeletons carry no depth: z by eye from each drawing (smaller = nearer the viewer)
 REAL_DEPTHS = {
     # round kid: arms in front of the body, legs hang behind the belly line
@@ -235,15 +285,18 @@ def overlay(image: np.ndarray, regions: list[np.ndarray], fronts: list[np.ndarra
     return out
 
 
-def real_drawings(out_dir: Path) -> None:
-    """Predicted masks on AnimatedDrawings characters (../shared/realdev), given the person-made foreground and
-    the predicted one: OUT/charN.png = drawing | drawing predictor (true fg) | (predicted fg) | hybrid, the default
-    (predicted fg) | skeleton rule (true fg)."""
+def real_drawings(realdev: Path, out_dir: Path) -> None:
+    """Predicted masks on AnimatedDrawings characters (REALDEV_DIR/animated_drawings/charN), given the person-made
+    foreground and the predicted one, as the masks stage makes them: OUT/charN.png = drawing | drawing predictor
+    (true fg) | (predicted fg) | hybrid (predicted fg) | skeleton rule (true fg); front bones drawn thick."""
     import yaml
 
     out_dir.mkdir(parents=True, exist_ok=True)
+    root = realdev / "animated_drawings" if (realdev / "animated_drawings").is_dir() else realdev
     for name, depths in REAL_DEPTHS.items():
-        d = REALDEV / name
+        d = root / name
+        if not (d / "char_cfg.yaml").exists():
+            raise SystemExit(f"{d}: no char_cfg.yaml; fix: pass --real the folder that holds animated_drawings/char1 ...")
         image = cv2.cvtColor(cv2.imread(str(d / "texture.png"), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
         true_fg = cv2.imread(str(d / "mask.png"), cv2.IMREAD_GRAYSCALE) > 127
         skeleton, pose = real_skeleton(yaml.safe_load((d / "char_cfg.yaml").read_text()), depths)
@@ -251,8 +304,8 @@ def real_drawings(out_dir: Path) -> None:
         panels = [image]
         for fg, method in ((true_fg, "drawing"), (pred_fg, "drawing"), (pred_fg, "hybrid"), (true_fg, "skeleton")):
             t0 = time.perf_counter()
-            if method == "drawing":
-                regions, fronts, _ = drawing_occlusion(image, fg, pose, skeleton)
+            if method == "drawing":  # as the masks stage calls it: no pockets where joined bones meet
+                regions, fronts, _ = drawing_occlusion(image, fg, pose, skeleton, joint_overlaps=False)
             else:
                 regions, fronts, _ = skeleton_occlusion(fg, pose, skeleton)
                 if method == "hybrid":
@@ -269,32 +322,51 @@ def real_drawings(out_dir: Path) -> None:
 
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--n", type=int, default=100, help="test samples")
-    ap.add_argument("--start", type=int, default=0, help="first test index")
+    ap.add_argument("--cache", type=Path, default=Path(tempfile.gettempdir()) / "occ_cache",
+                    help="sample cache (tools/occlusion_data.py); missing samples are generated")
+    ap.add_argument("--bvh", type=Path, default=None, help="folder of .bvh clips, as the training data had")
+    ap.add_argument("--n", type=int, default=60, help="samples per validation set")
+    ap.add_argument("--sets", nargs="*", default=list(SETS), choices=SETS, help="validation sets")
     ap.add_argument("--rows", action="store_true", help="print one row per test keyframe")
+    ap.add_argument("--no-fronts", action="store_true", help="skip the pair regions' fronts")
     ap.add_argument("--e2e", action="store_true", help="also run the sample shots end to end (slow)")
     ap.add_argument("--shots", nargs="*", default=list(OCCLUSION_SHOTS), help="shots for --e2e")
-    ap.add_argument("--threads", type=int, default=2, help="torch threads")
-    ap.add_argument("--real", type=Path, help="also write overlays of predicted masks on real drawings here "
-                                               "(../shared/realdev; kept out of the repository)")
+    ap.add_argument("--e2e-methods", nargs="*", default=list(METHODS), choices=METHODS, help="predictors for --e2e")
+    ap.add_argument("--only-e2e", action="store_true", help="skip the validation sets, fronts, shots and timing")
+    ap.add_argument("--real", type=Path, help="REALDEV_DIR: also write overlays of predicted masks on its real "
+                                               "drawings (kept out of the repository)")
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results" / "occlusion_real",
+                    help="where --real writes its overlays")
+    ap.add_argument("--weights", type=Path, default=None,
+                    help="a candidate weights file for the network (default: the shipped one), e.g. an older one")
     args = ap.parse_args(argv)
-    import torch
-
-    torch.set_num_threads(args.threads)
+    bvh = str(args.bvh) if args.bvh else None
+    if args.weights:
+        print(f"network weights {args.weights} (sha256 {use_weights(args.weights)})")
+    print(f"default predictor (Settings.occlusion): {Settings().occlusion}")
+    if args.only_e2e:
+        end_to_end(args.shots, tuple(args.e2e_methods))
+        return
     t0 = time.perf_counter()
     if args.rows:
         print("per keyframe IoU: " + "  ".join(f"{m}|{f}" for f in ("gt fg", "pred fg") for m in METHODS))
-    table = test_split(args.n, args.start, args.rows)
-    print_summary(table, "label", f"Test split, samples {args.start}..{args.start + args.n - 1}: mean IoU per class "
-                                  f"({time.perf_counter() - t0:.0f} s)")
-    print_summary(table, "style", "Test split: mean IoU per style")
+    table = score_sets(args.sets, args.n, args.cache, bvh, args.rows)
+    print_summary(table, "set", f"Validation sets (never trained on), {args.n} samples each: mean IoU "
+                                f"({time.perf_counter() - t0:.0f} s)")
+    for name in args.sets:
+        print_summary(table, "label", f"{name}: mean IoU per class / body family", within=name)
+        print_summary(table, "style", f"{name}: mean IoU per style", within=name)
+        if name.startswith("3d"):
+            print_summary(table, "view", f"{name}: mean IoU per view", within=name)
+    if not args.no_fronts:
+        front_accuracy([s for s in args.sets if s.startswith("3d")], args.n, args.cache, bvh)
     print_summary(sample_shots(), "label", "Sample shots (data_samples/*/gt_occ/key{k}_union.png)")
     print()
     timing()
     if args.real:
-        real_drawings(args.real)
+        real_drawings(args.real, args.out)
     if args.e2e:
-        end_to_end(args.shots)
+        end_to_end(args.shots, tuple(args.e2e_methods))
 
 
 if __name__ == "__main__":

@@ -34,8 +34,10 @@ class Settings:
         "non-adjacent bones); 'hybrid' (default) the skeleton rule's regions, each cut to where the drawing shows "
         "the front part (a small network's marks, ops/segmentation/occlusion_drawing.py, or the front bones' "
         "bodies between the drawing's strokes, whichever keeps more), kept whole where neither sees enough of "
-        "it; 'drawing' the network's own regions, far nearer the truth (IoU 0.78 against 0.27) but, built into "
-        "templates today, no better in-betweens (README, Evaluation)."))
+        "it, fronts checked against the drawing; 'drawing' the network's own regions, one per overlapping bone pair "
+        "with the front read off the drawing where it shows, far nearer the truth (IoU 0.70 against 0.52 on "
+        "held-out body and style families) but, built into templates today, worse in-betweens on three of four "
+        "shots (docs/occlusion.md)."))
 
     def as_dict(self) -> dict:
         """{name: value} of every parameter."""

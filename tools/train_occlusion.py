@@ -1,16 +1,20 @@
 """Train the occlusion network (ops/segmentation/occlusion_net.py) on generated characters, reproducibly.
 
-Reproduces ops/segmentation/occlusion_unet.npz from the generator (data_samples/generator/occlusion_set.py):
-train-split samples 0 .. N-1 only (the test split is never read), fixed seeds for the crops, augmentation
-and initialisation, torch on the CPU with a fixed thread count. At the end it writes the weights and
-patches WEIGHTS_SHA256 in occlusion_infer.py, so the stages using the network get a new code version.
+Reproduces ops/segmentation/occlusion_unet.npz from the two generators: the 3D one (data_samples/generator/
+occlusion3d.py: posed 3D bodies drawn with a depth buffer, people posed by BVH clips from --bvh) and the 2D one
+(data_samples/generator/occlusion_set.py). Train-split samples only (the test splits are never read for
+training), and of the 3D generator only the body and style families that are not held out (creature bodies
+and crayon drawings never appear). Fixed seeds for the crops, augmentation and initialisation, torch on the CPU
+with a fixed thread count. At the end it writes the weights, patches WEIGHTS_SHA256 in occlusion_infer.py (so
+the stages using the network get a new code version) and prints the validation IoU on data never trained on
+(tools/occlusion_eval.py: the 2D test split, the 3D test split's seen families and its two held-out families).
 
-    python tools/train_occlusion.py --cache /tmp/occ_cache [--samples 2000] [--steps 1500] [--threads 2]
+    python tools/train_occlusion.py --cache /tmp/occ_cache --bvh BVH_DIR [--samples3d 3000] [--samples 1200]
+        [--steps 2500] [--threads 2]
 
-The shipped weights are `--samples 2000 --steps 1500 --stop-after 1000` (seed 15, 2 threads): the learning
-rate follows the 1500-step cosine schedule and training ends after step 1000 (about 47 min on 2 cores, plus
-17 min generating the samples). CPU convolutions are not bitwise deterministic across machines or thread
-counts, so a rerun reproduces the weights' quality (validation IoU), not their bytes.
+BVH_DIR: the AnimatedDrawings clips (examples/bvh of facebookresearch/AnimatedDrawings, MIT). The shipped
+weights' exact command and figures are in docs/weights.md. CPU convolutions are not bitwise deterministic
+across machines or thread counts, so a rerun reproduces the weights' quality (validation IoU), not their bytes.
 
 Samples missing from the cache are generated first (tools/occlusion_data.py).
 """
@@ -23,6 +27,7 @@ import sys
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 import torch
 import torch.nn.functional as F
@@ -42,6 +47,7 @@ from ops.segmentation.occlusion_net import (  # noqa: E402
 from ops.segmentation.skeleton_guide import guide_channels  # noqa: E402
 from ops.types import Skeleton  # noqa: E402
 from tools.occlusion_data import ensure, load  # noqa: E402
+from tools.occlusion_eval import network_regions, use_weights, validate  # noqa: E402
 
 SEED = 15
 ZOOM_JITTER = 0.2  # log-uniform zoom factor in exp(+-this) around the working zoom
@@ -93,6 +99,13 @@ def crop(item: dict, rng: np.random.Generator, size: int) -> tuple[np.ndarray, n
     if rng.random() < 0.5:  # mirror: the skeleton channels are mirror-symmetric
         x, lab = x[:, :, ::-1], lab[:, :, ::-1]
     x[:3] = x[rng.permutation(3)] * rng.uniform(0.7, 1.3)  # other palettes, paler or stronger drawings
+    if rng.random() < 0.2:  # a grey drawing (pencil, a scan in black and white)
+        x[:3] = x[:3].mean(axis=0, keepdims=True)
+    if rng.random() < 0.3:  # contrast: faint pencil or heavy marker
+        x[:3] = np.sign(x[:3]) * np.abs(x[:3]) ** rng.uniform(0.7, 1.4)
+    if rng.random() < 0.15:  # softer lines (a blurred photograph)
+        sigma = rng.uniform(0.4, 1.0)
+        x[:3] = np.stack([cv2.GaussianBlur(np.ascontiguousarray(c), (0, 0), sigma) for c in x[:3]])
     x[:3] += rng.normal(0, rng.uniform(0, 0.03), (3, size, size)).astype(np.float32)
     np.clip(x[:3], -1, 1, out=x[:3])
     if rng.random() < DROP_DEPTH:
@@ -119,8 +132,11 @@ def set_sha(digest: str) -> None:
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cache", type=Path, required=True, help="sample cache (tools/occlusion_data.py)")
-    ap.add_argument("--samples", type=int, default=2000, help="train samples 0 .. N-1")
-    ap.add_argument("--steps", type=int, default=1500, help="length of the learning-rate schedule")
+    ap.add_argument("--bvh", type=Path, default=None, help="folder of .bvh clips that pose the 3D generator's people")
+    ap.add_argument("--samples3d", type=int, default=3000, help="3D train samples (the first N trained-on indices)")
+    ap.add_argument("--samples", type=int, default=1200, help="2D train samples 0 .. N-1")
+    ap.add_argument("--share3d", type=float, default=0.7, help="share of each batch's crops from the 3D samples")
+    ap.add_argument("--steps", type=int, default=2500, help="length of the learning-rate schedule")
     ap.add_argument("--stop-after", type=int, default=None, help="end training after this many steps")
     ap.add_argument("--batch", type=int, default=8)
     ap.add_argument("--crop", type=int, default=96, help="training crop side, working pixels")
@@ -128,14 +144,31 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", type=Path, default=WEIGHTS_PATH)
     ap.add_argument("--workers", type=int, default=1, help="processes generating missing samples")
+    ap.add_argument("--val-n", type=int, default=60, help="samples per validation set")
+    ap.add_argument("--validate-only", action="store_true", help="only print the validation of --out")
     args = ap.parse_args(argv)
+    bvh = str(args.bvh) if args.bvh else None
+    if not args.validate_only:
+        train(args, bvh)
+    digest = use_weights(args.out)
+    print(f"validation of {args.out} (sha256 {digest}): IoU of the network's regions, true foreground")
+    validate(args.val_n, args.cache, bvh, {"network": network_regions}, args.workers)
+
+
+def train(args: argparse.Namespace, bvh: str | None) -> None:
+    """Train from scratch on the cached samples and write the weights (and their sha256, for the shipped file)."""
     torch.set_num_threads(args.threads)
     torch.manual_seed(SEED)
     rng = np.random.default_rng(SEED)
     t0 = time.perf_counter()
-    paths = ensure(args.cache, "train", 0, args.samples, args.workers)
-    items = [prepare(load(p), rng, args.crop // 4) for p in paths]
-    print(f"{len(items)} samples prepared in {time.perf_counter() - t0:.0f} s", flush=True)
+    paths3d = ensure(args.cache, "train", 0, args.samples3d, args.workers, "3d", bvh) if args.samples3d else []
+    paths2d = ensure(args.cache, "train", 0, args.samples, args.workers) if args.samples else []
+    items3d = [prepare(load(p), rng, args.crop // 4) for p in paths3d]
+    items2d = [prepare(load(p), rng, args.crop // 4) for p in paths2d]
+    print(f"{len(items3d)} 3D and {len(items2d)} 2D samples prepared in {time.perf_counter() - t0:.0f} s", flush=True)
+    pools = [(items3d, args.share3d), (items2d, 1 - args.share3d)]
+    pools = [(items, share) for items, share in pools if items and share > 0]
+    shares = np.array([share for _, share in pools]) / sum(share for _, share in pools)
     net = OcclusionUNet().to(memory_format=torch.channels_last)  # ~30% faster convolutions on the CPU
     opt = torch.optim.AdamW(net.parameters(), lr=args.lr, weight_decay=1e-4)
     sched = torch.optim.lr_scheduler.LambdaLR(
@@ -143,7 +176,10 @@ def main(argv: list[str] | None = None) -> None:
     net.train()
     t0, running = time.perf_counter(), 0.0
     for step in range(min(args.steps, args.stop_after or args.steps)):
-        batch = [crop(items[int(i)], rng, args.crop) for i in rng.integers(0, len(items), args.batch)]
+        batch = []
+        for _ in range(args.batch):
+            items = pools[int(rng.choice(len(pools), p=shares))][0]
+            batch.append(crop(items[int(rng.integers(len(items)))], rng, args.crop))
         x = torch.from_numpy(np.stack([b[0] for b in batch])).contiguous(memory_format=torch.channels_last)
         y = torch.from_numpy(np.stack([b[1] for b in batch]))
         loss = loss_fn(net(x), y)
@@ -161,7 +197,7 @@ def main(argv: list[str] | None = None) -> None:
     digest = save_weights(net, args.out)
     if args.out == WEIGHTS_PATH:
         set_sha(digest)
-    print(f"weights {args.out} sha256 {digest} ({args.out.stat().st_size / 1e6:.2f} MB)")
+    print(f"weights {args.out} sha256 {digest} ({args.out.stat().st_size / 1e6:.2f} MB)", flush=True)
 
 
 if __name__ == "__main__":

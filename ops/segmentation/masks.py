@@ -102,15 +102,18 @@ regions shaped by the drawing) or "drawing". `source`
         # or a hip opened as a dark blob when the limb moved (arm_cross: 25.2 -> 25.5 dB, Chamfer 30.2 -> 28.1)
         from ops.segmentation.occlusion_drawing import predict_occlusion as drawing_occlusion  # torch: only here
 
-        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False)
+        regions, fronts, w = drawing_occlusion(drawing, body, pose, skeleton, joint_overlaps=False, source=source)
         warnings += w
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
         if occlusion == "hybrid" and regions:
             from ops.segmentation.occlusion_drawing import shape_by_drawing  # torch: only here
+            from ops.segmentation.occlusion_pairs import check_fronts
 
             regions = shape_by_drawing(regions, fronts, drawing, body, pose, skeleton, parts)
+            fronts, w = check_fronts(regions, fronts, drawing, body, pose, skeleton, source)  # the drawing's word
+            warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included
         held = fg if seg.holes is None else fg | closed_holes(fg, seg.coverage, seg.holes)

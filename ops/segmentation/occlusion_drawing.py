@@ -1,11 +1,12 @@
 """Occlusion masks read from the drawing with the skeleton as a guide (§4.1, issue 15).
 
 A small U-Net (ops.segmentation.occlusion_net; run in NumPy by ops.segmentation.occlusion_infer), trained on
-generated characters, marks every pixel where one part covers another: an arm across the body, a round thigh
-inside a round belly, a skirt over the thighs, crossing shins, joint overlaps. It sees the drawing's strokes and colour edges and, through the
-skeleton channels, which bones are near and which of them is nearer the viewer. Its mask (inside the
-foreground) splits into connected regions; each region's front bones come from the skeleton: at every
-pixel, of the two nearest bones whose bodies reach it, the one with the smaller depth is in front.
+generated characters (posed 3D bodies drawn with a depth buffer, and the 2D generator's flat parts), marks every
+pixel where one part covers another: an arm across the body, a round thigh inside a round belly, a skirt over
+the thighs, crossing shins, a near leg over a far one in a side view, joint overlaps. It sees the drawing's
+strokes and colour edges and, through the skeleton channels, which bones are near and which of them is nearer
+the viewer. Its mask (inside the foreground) splits into one region per overlapping bone pair, whose front is
+read off the drawing where it shows and taken from z where it does not (ops.segmentation.occlusion_pairs).
 
 The skeleton rule (ops.segmentation.occlusion) stays the fallback where the drawing gives no evidence:
 a region it predicts on a patch of the drawing that shows no stroke or colour edge at all (a flat
@@ -25,17 +26,15 @@ from ops.segmentation.contacts import drawn_bodies, stroke_reach
 from ops.segmentation.network_input import from_work, network_input, resample, to_work
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.segmentation.occlusion_infer import occlusion_logits
+from ops.segmentation.occlusion_pairs import bone_pairs, pair_regions
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import Skeleton
 
 THRESHOLD = 0.5  # network probability above which a pixel is occluded
-MIN_REGION_PX = 12  # the ground truth's own minimum overlap: smaller components are noise
 REACH = 1.5  # a bone's body reaches this many body radii (+ REACH_PX) from its segment
 REACH_PX = 3.0
-MIN_FRONT_SHARE = 0.15  # a bone in front on this share of a region is one of its front bones
 EDGE_LEVEL = 0.08  # colour step (0-1 scale) that counts as a stroke or colour edge: evidence in the drawing
 MAX_FLAT_EDGE_SHARE = 0.01  # a region whose pixels are edges less often than this shows nothing
-MAX_VOTERS = 4000  # pixels of a region that vote on its front bones
 MIN_MARKED_SHARE = 0.2  # a skeleton rule's region the network marks this much of is shaped by the marks
 NEAR_MARK_PX = 2  # ... keeping its pixels this near a mark
 MIN_HELD_SHARE = 0.3  # a skeleton rule's region its front bones' drawn bodies hold this much of may be cut to them
@@ -75,33 +74,6 @@ def front_and_back(points: np.ndarray, pose: np.ndarray, skeleton: Skeleton, rad
     return front.astype(np.int64), back.astype(np.int64)
 
 
-def region_votes(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """(n,) int64 front and back bone at an even subsample of a (H, W) bool region's pixels (at most MAX_VOTERS:
-    a subsample of a large region says the same)."""
-    ys, xs = np.nonzero(region)
-    step = max(1, len(xs) // MAX_VOTERS)
-    return front_and_back(np.stack([xs[::step], ys[::step]], axis=1), pose, skeleton, radii)
-
-
-def front_bones_of(front: np.ndarray, back: np.ndarray, n_bones: int) -> tuple[int, np.ndarray]:
-    """Main front bone and (b,) int64 front bones from a region's votes (region_votes).
-
-    Front bones: those in front on at least MIN_FRONT_SHARE of its pixels, less any bone that lies behind
-    on more of them than in front (a region where the forearm covers the torso has the forearm only).
-    """
-    fc, bc = np.bincount(front, minlength=n_bones), np.bincount(back, minlength=n_bones)
-    main = int(np.argmax(fc))
-    keep = [b for b in np.nonzero(fc >= MIN_FRONT_SHARE * len(front))[0] if b == main or fc[b] > bc[b]]
-    return main, np.array(sorted(int(b) for b in keep), np.int64)
-
-
-def region_front_bones(region: np.ndarray, pose: np.ndarray, skeleton: Skeleton, radii: np.ndarray
-                       ) -> tuple[int, np.ndarray]:
-    """Main front bone and (b,) int64 front bones of a (H, W) bool region; radii: (B,) body radii, pixels."""
-    return front_bones_of(*region_votes(region, pose, skeleton, radii), len(skeleton.bones))
-
-
 def joined_pixels(mask: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
                   radii: np.ndarray) -> np.ndarray:
     """(H, W) bool pixels of a (H, W) bool mask where the two bones meeting there are joined, read as the skeleton
@@ -109,12 +81,15 @@ def joined_pixels(mask: np.ndarray, foreground: np.ndarray, pose: np.ndarray, sk
     neighbouring bone whose body holds the pixel (spine - clavicle - upper arm; a thick tail's short segments,
     each over the next but one). That is a joint the mesh bends at, not an occlusion; a pocket there opened as
     a dark blob when the limb moved, and a curled tail's joints made one pocket of the whole tail.
-    radii: (B,) body radii, pixels."""
+    The two bones are the pair regions' (occlusion_pairs.bone_pairs): the nearest body and the nearest body not
+    joined to it, so a forearm lying across the belly near its own elbow is the forearm over the belly, not the
+    forearm at the elbow. radii: (B,) body radii, pixels."""
     ys, xs = np.nonzero(mask)
     out = np.zeros(mask.shape, bool)
     if len(xs) == 0 or len(skeleton.bones) < 2:
         return out
-    front, back = front_and_back(np.stack([xs, ys], axis=1), pose, skeleton, radii)
+    pairs = bone_pairs(mask, pose, skeleton, radii)
+    front, back = pairs[ys, xs, 0], pairs[ys, xs, 1]
     adjacent = skeleton.adjacent_bones()
     joined = adjacent[front, back]
     between = adjacent[front] & adjacent[back]  # (N, B) bones next to both
@@ -192,12 +167,15 @@ def occlusion_marks(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
 
 
 def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
-                      joint_overlaps: bool = True) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
-    """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (b,)
-    int64 front bones, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther).
+                      joint_overlaps: bool = True, source: str = "drawing"
+                      ) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """Occlusion regions ((H, W) bool each, back to front) of a (H, W, C) float32 or uint8 drawing, their (1,)
+    int64 front bone, and warnings. foreground: (H, W) bool; pose: (J, 3) pixels and depth (larger = farther);
+    source names the keyframe in warnings.
 
     The mask is occlusion_marks'; joint_overlaps False leaves out the pixels where two joined bones meet
-    (joined_pixels).
+    (joined_pixels). It is split into one region per overlapping bone pair, the front read off the drawing
+    where it shows and from z where it does not (ops.segmentation.occlusion_pairs).
     """
     fg = np.asarray(foreground, bool)
     if not fg.any() or len(skeleton.bones) == 0:
@@ -205,22 +183,8 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
     mask, radii, warnings = occlusion_marks(drawing, fg, pose, skeleton)
     if not joint_overlaps:
         mask &= ~joined_pixels(mask, fg, pose, skeleton, radii)
-    labels, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
-    sizes = np.bincount(labels.ravel(), minlength=n + 1)
-    depth = bone_depths(pose, skeleton)
-    regions, fronts, keys = [], [], []
-    for lab, box in enumerate(ndimage.find_objects(labels), start=1):
-        if box is None or sizes[lab] < MIN_REGION_PX:
-            continue
-        region = np.zeros(fg.shape, bool)
-        region[box] = labels[box] == lab
-        votes_front, votes_back = region_votes(region, pose, skeleton, radii)
-        main, front = front_bones_of(votes_front, votes_back, len(skeleton.bones))
-        regions.append(region)
-        fronts.append(front)
-        keys.append(-depth[main])  # larger z (farther) first: back to front
-    order = np.argsort(np.array(keys), kind="stable")
-    return [regions[i] for i in order], [fronts[i] for i in order], warnings
+    regions, fronts, w = pair_regions(mask, drawing, fg, pose, skeleton, radii, source)
+    return regions, fronts, warnings + w
 
 
 def shape_by_drawing(regions: list[np.ndarray], fronts: list[np.ndarray], drawing: np.ndarray,

@@ -29,7 +29,7 @@ HEAD_WIDTH = 12
 BN_EPS = 1e-5  # torch.nn.BatchNorm2d's default
 WEIGHTS_PATH = Path(__file__).with_name("occlusion_unet.npz")
 # sha256 of WEIGHTS_PATH: a retrained network changes this module, hence the code version of the stages using it
-WEIGHTS_SHA256 = "1eb869871054638ce8905563fb882d5fb8d4102c75b1312e6cb1dbbfd951dbbc"
+WEIGHTS_SHA256 = "70fab8ba16e75c28dbe97a0fda25c506b0988482be404301ac5407789482e615"
 
 # (name in the weights file, stride, padding, dilation) of each conv + BatchNorm + ReLU, in forward order
 _ENCODER = {
@@ -108,12 +108,15 @@ def _up(x: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return hwc.reshape(shape[0], shape[1], -1).transpose(2, 0, 1)
 
 
-def occlusion_logits(x: np.ndarray, path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> np.ndarray:
-    """(IN_CHANNELS, H, W) float32 network input -> (H, W) float32 logits of "this pixel covers another part"."""
+def occlusion_logits(x: np.ndarray, path: str | None = None, sha256: str | None = None) -> np.ndarray:
+    """(IN_CHANNELS, H, W) float32 network input -> (H, W) float32 logits of "this pixel covers another part".
+
+    path, sha256: the weights (default: WEIGHTS_PATH and WEIGHTS_SHA256 as they are at the call, so a tool
+    that evaluates a candidate weights file sets both)."""
     if x.ndim != 3 or x.shape[0] != IN_CHANNELS or x.shape[1] % STRIDE or x.shape[2] % STRIDE:
         raise ValueError(f"occlusion network input must be ({IN_CHANNELS}, H, W) with H, W multiples of {STRIDE}, "
                          f"got {x.shape}")
-    layers = folded_weights(path, sha256)
+    layers = folded_weights(str(WEIGHTS_PATH) if path is None else path, WEIGHTS_SHA256 if sha256 is None else sha256)
     x = np.ascontiguousarray(x, np.float32)
     skips, t = [], x
     for block in _ENCODER.values():
