@@ -1,6 +1,7 @@
 """Foreground benchmark (§4.1): IoU against person-made masks of photographed children's drawings.
 
-Data: ../shared/realdev/animated_drawings/char1..6 (AnimatedDrawings, MIT; never copied into this repo):
+Data: AnimatedDrawings' example characters char1..6 (facebookresearch/AnimatedDrawings, examples/characters,
+MIT; never copied into this repo), given as the folder that holds them:
 texture.png (RGBA, fully opaque: its alpha is ignored), mask.png (255 = character, as a person drew it,
 measured as it is) and char_cfg.yaml (joints with parents, loc in pixels; every joint gets z = 0).
 Compares segment_foreground with the rule it replaced (luminance, adaptive threshold, closing, hole
@@ -42,7 +43,6 @@ from ops.types import Skeleton
 
 ROOT = Path(__file__).resolve().parents[1]
 SAMPLES = ROOT / "data_samples"
-DATA = ROOT.parent / "shared" / "realdev" / "animated_drawings"
 OUT = ROOT / "benchmarks" / "results" / "masks"
 MEAN_TARGET, WORST_TARGET = 0.95, 0.92
 
@@ -151,7 +151,7 @@ def score_samples(out: Path) -> None:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--data", type=Path, default=DATA)
+    ap.add_argument("data", type=Path, help="folder of AnimatedDrawings characters (char1/char_cfg.yaml, ...)")
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--grabcut", action="store_true", help="also score the GrabCut-refined mask")
     ap.add_argument("--samples", action="store_true", help="also score data_samples/ against their gt_fg")

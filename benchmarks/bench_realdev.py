@@ -1,11 +1,12 @@
-"""Real drawings end to end: each photographed character of ../shared/realdev as a shot whose two keyframes
+"""Real drawings end to end: each photographed AnimatedDrawings character as a shot whose two keyframes
 are the same drawing, run by the CLI as a user would.
 
 The method must hold on real input: no crash, no traceback, and with nothing to move every output frame must
 be the drawing again. Printed per character: exit status, seconds, the PSNR of every output frame composited
 over the paper plate (ops/evaluation/plate.py) against the drawing, inside the person's mask and over the
 whole image, and the warnings the stages logged (snapped joints, holes, dropped specks ...).
-Data are read from ../shared/realdev/animated_drawings (never copied into this repo); the shot folders go to a
+Data are read from the folder given as the first argument (AnimatedDrawings' examples/characters; never copied
+into this repo); the shot folders go to a
 temporary directory, or to --keep DIR to look at them.
 Run: .venv/bin/python benchmarks/bench_realdev.py [--only char1 ...] [--frames 3] [--keep DIR]
 """
@@ -24,7 +25,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.bench_masks import DATA, load_character  # noqa: E402
+from benchmarks.bench_masks import load_character  # noqa: E402
 from ops.evaluation.plate import over, paper_plate  # noqa: E402
 from ops.shotio.image_io import read_image, write_image  # noqa: E402
 from resources.store import Store  # noqa: E402
@@ -54,11 +55,12 @@ def psnr(a: np.ndarray, b: np.ndarray) -> float:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("data", type=Path, help="folder of AnimatedDrawings characters (char1/char_cfg.yaml, ...)")
     ap.add_argument("--only", nargs="*")
     ap.add_argument("--frames", type=int, default=3)
     ap.add_argument("--keep", type=Path, default=None)
     args = ap.parse_args()
-    chars = sorted(d for d in DATA.iterdir() if (d / "char_cfg.yaml").is_file() and (not args.only or d.name in args.only))
+    chars = sorted(d for d in args.data.iterdir() if (d / "char_cfg.yaml").is_file() and (not args.only or d.name in args.only))
     work = args.keep or Path(tempfile.mkdtemp(prefix="realdev-"))
     print(f"{'character':10s} {'exit':>4s} {'s':>6s} {'min dB in mask':>15s} {'min dB image':>13s}  warnings")
     failures = 0

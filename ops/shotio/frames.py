@@ -113,6 +113,11 @@ def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tupl
     for extra in (out_dir / "frames").glob("[0-9][0-9][0-9][0-9].png"):
         if int(extra.stem) >= len(frames):
             extra.unlink()
+    write_report(out_dir, report)
+
+
+def write_report(out_dir: Path, report: dict) -> None:
+    """OUT_DIR/report.json, atomically."""
     tmp = out_dir / f".report.json.tmp{os.getpid()}"
     tmp.write_text(json.dumps(report, indent=2))
     os.replace(tmp, out_dir / "report.json")

@@ -11,7 +11,7 @@ import re
 
 import pytest
 
-from .conftest import SHOT, cli
+from .conftest import ROOT, SHOT, cli, env_for
 
 pytestmark = pytest.mark.slow
 
@@ -145,3 +145,24 @@ def test_a_finished_command_leaves_without_tearing_the_interpreter_down():
         done = subprocess.run([sys.executable, "-c", code, str(log)], capture_output=True, text=True, timeout=20)
         assert done.returncode == 4 and done.stdout == "said; atexit ran", done
         assert log.read_text().strip() == "logged"
+
+
+def test_one_time_figure_on_stderr_stdout_report_and_the_wall_clock(warm, tmp_path):
+    """The shot's line on stderr, the result line on stdout and report.json give one time, the command's own:
+    within the wall clock of the process (which adds only the interpreter's start and its exit)."""
+    import json
+    import re
+    import subprocess
+    import sys
+    import time
+
+    t0 = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "assets.cli", "run", str(warm.shot), "--out", str(tmp_path / "o")],
+                          capture_output=True, text=True, env=env_for(warm.home), cwd=ROOT, timeout=600)
+    wall = time.perf_counter() - t0
+    assert done.returncode == 0, done.stderr
+    report = json.loads((tmp_path / "o" / "report.json").read_text())
+    total = report["seconds_total"]
+    assert f"{total:.1f} s)" in done.stdout and f"cached, {total:.1f} s" in done.stderr
+    assert total <= wall and wall - total < 2.0, (total, wall)
+    assert not re.search(r"\d+\.\d s", done.stderr.replace(f"{total:.1f} s", ""))  # no second figure
