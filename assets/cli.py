@@ -96,6 +96,11 @@ def _parser() -> argparse.ArgumentParser:
     m.add_argument("--predicted", action="store_true",
                    help="the occlusion masks as predicted, before the T-junctions refine them")
     occlusion_flag(m)
+    j = sub.add_parser("junctions", help="propose T-junctions for the keys that have no clicks (and accept them)")
+    j.add_argument("shot_dir")
+    j.add_argument("--write", action="store_true", help="add the proposals scoring at least --min-score to shot.json")
+    j.add_argument("--min-score", type=float, default=0.5, help="least score written by --write (0 .. 1)")
+    occlusion_flag(j)
     e = sub.add_parser("eval", help="evaluate shots that carry ground truth")
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
@@ -284,6 +289,24 @@ def _masks(args) -> int:
     return 0
 
 
+def _junctions(args) -> int:
+    from .run.junctions import accept_junctions, propose_junctions
+
+    proposals = propose_junctions(args.shot_dir, _settings(args))
+    if not proposals:
+        print("every key has T-junction clicks: nothing to propose (a click always wins)")
+    for k, props in proposals.items():
+        print(f"key {k}: {len(props.points)} proposed")
+        for (x, y), score in zip(props.points, props.scores):
+            print(f"  ({x:7.1f}, {y:7.1f})  score {score:.2f}")
+    if args.write and proposals:
+        n = accept_junctions(args.shot_dir, proposals, args.min_score)
+        print(f"wrote {n} T-junction(s) scoring >= {args.min_score} into shot.json (the old one: shot.json.bak)")
+    elif proposals:
+        print(f"next: inbetween edit {args.shot_dir} (accept them one by one), or rerun with --write")
+    return 0
+
+
 def _eval(args) -> int:
     from .evaluation_cli import evaluate_root
 
@@ -353,8 +376,8 @@ def _motion(args) -> int:
     return 0
 
 
-COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "eval": _eval, "ui": _ui, "edit": _edit,
-            "worker": _worker, "new": _new, "motion": _motion}
+COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "junctions": _junctions, "eval": _eval,
+            "ui": _ui, "edit": _edit, "worker": _worker, "new": _new, "motion": _motion}
 
 
 def _crash_log(trace: str) -> Path | None:
