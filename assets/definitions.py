@@ -78,7 +78,10 @@ ALL_ASSETS = [*SOURCE_ASSETS, *STAGE_ASSETS]
 SHOT_SELECTION = dg.AssetSelection.assets(*(k for a in SHOT_ASSETS for k in a.keys))
 
 # the jobs' partitions come from their assets (the shots' dynamic partitions)
-observe_job = dg.define_asset_job("observe_sources", selection=[asset_key(s) for s in union_sources()])
+# observing a shot's sources hashes a few files: in one process (the default multiprocess executor would start an
+# interpreter per source asset, 64 of them, for every shot the sensor finds)
+observe_job = dg.define_asset_job("observe_sources", selection=[asset_key(s) for s in union_sources()],
+                                  executor_def=dg.in_process_executor)
 shot_job = dg.define_asset_job("inbetween_shot", selection=SHOT_SELECTION)
 evaluation_job = dg.define_asset_job("evaluate_shot", selection=[asset_key(n) for n in EVAL_STAGES])
 FARM_JOB = "inbetween_shot_farm"
