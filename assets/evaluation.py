@@ -35,7 +35,7 @@ def _single_layer(env: StageEnv) -> StageResult:
     seqs = []
     for k in (0, 1):
         template = optimize_topology(refined[k], shot.key_pose(k), shot.key_pose(1 - k), shot.skeleton,
-                                     mode="single-layer", seed=s.seed, solver=Solver(s.mu, s.grad_tol, s.max_iter))
+                                     mode="single-layer", solver=Solver(s.mu, s.grad_tol, s.max_iter))
         textured, _ = texture_lane(template, refined[k], refined[1 - k], shot.key_pose(k), shot.key_pose(1 - k),
                                    inpainter, s.mu, s.grad_tol, s.max_iter)
         seqs.append(deform_lane(textured, shot.times, shot.poses, k == 1, shot.size, s.mu, s.supersample))

@@ -35,6 +35,7 @@ from scipy.sparse.linalg import splu
 
 from ops.geometry.energy import SymmetricDirichlet, normalization
 from ops.geometry.mesh import signed_areas, vertex_components
+from ops.geometry.newton import NewtonSystem
 from ops.types import Template
 
 
@@ -93,26 +94,36 @@ def max_injective_step(X: np.ndarray, D: np.ndarray, faces: np.ndarray) -> float
     return float(min(1.0, 0.8 * first_fold_time(X, D, faces)))
 
 
-class Deformer:
-    """Factorizes the preconditioner of one template once; `solve` deforms it to handle targets."""
+SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (default), preconditioned L-BFGS
+NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
+MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again
 
-    def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0):
-        """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids."""
+
+class Deformer:
+    """Prepares one template's energy once; `solve` deforms it to handle targets (projected Newton or L-BFGS)."""
+
+    def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
+                 method: str = "newton"):
+        """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids;
+        method: one of SOLVERS."""
+        if method not in SOLVERS:
+            raise ValueError(f"method must be one of {SOLVERS}, got {method!r}")
         self.rest = np.asarray(rest, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.handles = np.asarray(handles, dtype=np.int64)
+        self.method, self.mu = method, float(mu)
         self.norm = normalization(self.rest, self.faces)
         self.rest_n = self.norm.to_norm(self.rest)
         self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu)
-        self._setup_preconditioner(mu)
+        self._setup_free_groups()
         self._edges = _edge_operator(self.faces, len(self.rest))
+        self._newton: NewtonSystem | None = None
+        self._solve_P = None  # the L-BFGS preconditioner's factorization, made when first needed
 
-    def _setup_preconditioner(self, mu: float) -> None:
-        """Factorize P; label the vertices of components without handles, whose mean is projected out."""
+    def _setup_free_groups(self) -> None:
+        """Label the vertices of components without handles, whose mean is projected out of every step, and the
+        diagonal both systems add: 2 mu per handle, a tiny multiple of the lumped mass on handle-free vertices."""
         n = len(self.rest_n)
-        L = -igl.cotmatrix(self.rest_n, self.faces)
-        hdiag = np.bincount(self.handles, minlength=n).astype(np.float64) * 2.0 * mu
-        P = 8.0 * L + sp.diags(hdiag)
         comp = vertex_components(n, self.faces)
         has_handle = np.zeros(comp.max() + 1, bool)
         has_handle[comp[self.handles]] = True
@@ -123,12 +134,19 @@ class Deformer:
         self._free = np.nonzero(free)[0]
         self._group = group_of[comp[self._free]]
         self._group_size = np.bincount(self._group).astype(np.float64)
+        self._diagonal = np.bincount(self.handles, minlength=n).astype(np.float64) * 2.0 * self.mu
         if free.any():
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))
             mass = np.where(mass > 0, mass, 1.0 / max(n, 1))
-            P = P + sp.diags(1e-6 * mass * free)
-        self._solve_P = splu(sp.csc_matrix(P)).solve
+            self._diagonal += 1e-6 * mass * free
+
+    def _preconditioner(self):
+        """Factorize P = 8 (-L) + the diagonal once (L-BFGS's initial inverse Hessian): its solve function."""
+        if self._solve_P is None:
+            L = -igl.cotmatrix(self.rest_n, self.faces)
+            self._solve_P = splu(sp.csc_matrix(8.0 * L + sp.diags(self._diagonal))).solve
+        return self._solve_P
 
     @property
     def _free_groups(self) -> list[np.ndarray]:
@@ -137,7 +155,10 @@ class Deformer:
 
     def precondition(self, G: np.ndarray) -> np.ndarray:
         """P^-1 G for G (n, 2), with handle-free components' translation removed (a linear map of G)."""
-        D = self._solve_P(G)
+        return self._remove_free_translation(self._preconditioner()(G))
+
+    def _remove_free_translation(self, D: np.ndarray) -> np.ndarray:
+        """D (n, 2) with each handle-free component's mean removed, in place."""
         if len(self._free):
             mean = np.stack([np.bincount(self._group, D[self._free, c]) for c in (0, 1)], axis=1)
             D[self._free] -= (mean / self._group_size[:, None])[self._group]
@@ -155,26 +176,63 @@ class Deformer:
         max_iter: int = 5000,
         memory: int = 10,
     ) -> DeformResult:
-        """Minimize energy for handle targets (h, 2) pixels from fold-free x0 (n, 2) pixels (rest if None)."""
+        """Minimize energy for handle targets (h, 2) pixels from fold-free x0 (n, 2) pixels (rest if None).
+
+        Stops at gradient norm grad_tol (normalized units) or after max_iter iterations; memory: the L-BFGS
+        pairs kept (unused by Newton)."""
         T = self.norm.to_norm(targets)
         X = self.rest_n.copy() if x0 is None else self.norm.to_norm(x0)
         E, G = self.energy_fn.value_grad(X, T)
         if not np.isfinite(E):
             raise ValueError("x0 folds a triangle: the deformation must start from a fold-free state")
+        X, E, G, energies = self._iterations(X, E, G, T, grad_tol, max_iter, memory)
+        gnorm = float(np.linalg.norm(G))
+        return DeformResult(
+            x=self.norm.to_pixels(X),
+            energy=float(E),
+            iterations=len(energies) - 1,
+            grad_norm=gnorm,
+            converged=gnorm < grad_tol,
+            energy_history=np.asarray(energies),
+        )
+
+    def _iterations(self, X, E, G, T, grad_tol: float, max_iter: int, memory: int):
+        """Descend from (X, E, G) at normalized targets T until |G| < grad_tol: (X, E, G, energies per iterate).
+
+        Every step updates the L-BFGS pairs. "lbfgs" steps along the L-BFGS direction; "newton" along the
+        projected Newton direction (ops.geometry.newton), except where the injectivity bound would cut that
+        step below NEWTON_CAP: far from a minimum (a pose far from the start) Newton aims past folds and then
+        creeps along the barrier in tiny steps (the tail's direct solve to its curled pose: 920 steps to an
+        energy of 289), where the Laplacian-preconditioned direction moves the whole sheet smoothly. A step the
+        line search rejects is retried along the preconditioned gradient, with the pairs cleared.
+        """
         hist = deque(maxlen=memory)  # (s, y, 1 / s.y, P^-1 y) of the newest pairs
         energies = [E]
-        it, gnorm = 0, float(np.linalg.norm(G))
+        gnorm = float(np.linalg.norm(G))
         PG = self.precondition(G) if gnorm >= grad_tol else None
-        while gnorm >= grad_tol and it < max_iter:
-            D = -self._direction(G, PG, hist)
-            if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient
+        lbfgs_left, backoff = 0, 0  # L-BFGS steps to take before Newton is tried again, and how many next time
+        while gnorm >= grad_tol and len(energies) <= max_iter:
+            D, cap = None, 0.0
+            if self.method == "newton" and lbfgs_left == 0:
+                D, cap = self._newton_direction(X, G)
+                if cap < NEWTON_CAP:  # Newton meets the barrier: L-BFGS for a while, longer each time in a row
+                    backoff = min(2 * backoff or 1, MAX_BACKOFF)
+                    lbfgs_left = backoff
+                else:
+                    backoff = 0
+            elif lbfgs_left:
+                lbfgs_left -= 1
+            if D is None or cap < NEWTON_CAP:
+                D = -self._direction(G, PG, hist)
+                if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient
+                    hist.clear()
+                    D = -PG
+                cap = self._injective_step(X, D)
+            step = self._line_search(X, D, E, G, T, cap)
+            if step is None and (hist or self.method == "newton"):
                 hist.clear()
                 D = -PG
-            step = self._line_search(X, D, E, G, T)
-            if step is None and hist:
-                hist.clear()
-                D = -PG
-                step = self._line_search(X, D, E, G, T)
+                step = self._line_search(X, D, E, G, T, self._injective_step(X, D))
             if step is None:
                 break
             t, E1, G1 = step
@@ -184,16 +242,21 @@ class Deformer:
                 hist.append((s, y, 1.0 / np.vdot(s, y), PG1 - PG))
             X, E, G, PG = X + s, E1, G1, PG1
             energies.append(E)
-            it += 1
             gnorm = float(np.linalg.norm(G))
-        return DeformResult(
-            x=self.norm.to_pixels(X),
-            energy=float(E),
-            iterations=it,
-            grad_norm=gnorm,
-            converged=gnorm < grad_tol,
-            energy_history=np.asarray(energies),
-        )
+        return X, E, G, energies
+
+    def _newton_direction(self, X: np.ndarray, G: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """(projected Newton direction (n, 2), its injectivity-capped step), or (None, 0) where the projected
+        Hessian is singular or the direction does not descend."""
+        if self._newton is None:
+            self._newton = NewtonSystem(self.energy_fn, self._diagonal)
+        try:
+            D = self._remove_free_translation(self._newton.step(X, G))
+        except ValueError:
+            return None, 0.0
+        if np.vdot(D, G) >= 0:
+            return None, 0.0
+        return D, self._injective_step(X, D)
 
     def solve_along(
         self,
@@ -240,11 +303,13 @@ class Deformer:
             r += (a - b) * s
         return r
 
-    def _line_search(self, X, D, E, G, T, c1: float = 1e-4, max_halvings: int = 40):
-        """Backtracking Armijo search from the injectivity-capped step: (t, E, G) or None."""
+    def _injective_step(self, X: np.ndarray, D: np.ndarray) -> float:
+        """min(1, 0.8 * first-fold time) along X + t D, both (n, 2) normalized (max_injective_step, faster)."""
         m = len(self.faces)
-        t_fold = _fold_time((self._edges @ X).reshape(m, 2, 2), (self._edges @ D).reshape(m, 2, 2))
-        t = min(1.0, 0.8 * t_fold)
+        return float(min(1.0, 0.8 * _fold_time((self._edges @ X).reshape(m, 2, 2), (self._edges @ D).reshape(m, 2, 2))))
+
+    def _line_search(self, X, D, E, G, T, t: float, c1: float = 1e-4, max_halvings: int = 40):
+        """Backtracking Armijo search from the injectivity-capped step t: (t, E, G) or None."""
         slope = float(np.vdot(G, D))
         for _ in range(max_halvings):
             Xt = X + t * D

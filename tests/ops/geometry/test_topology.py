@@ -10,8 +10,14 @@ from ops.geometry.mesh import boundary_loops, vertex_components
 from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import build_template
 from ops.geometry.topology import (
+    MAX_CUSP_MOVES,
+    Assignment,
+    Solver,
+    _Search,
     alternating,
     count_assignments,
+    cusp_assignment,
+    cusp_stretches,
     enumerate_assignments,
     evaluate,
     handle_path,
@@ -21,6 +27,7 @@ from ops.geometry.topology import (
     pose_path,
     segment_labels,
 )
+from ops.geometry.warmstart import transfer_positions
 from ops.types import RefinedMasks, Skeleton, Template
 from tests.ops.geometry.test_template import capsule, capsule_scene
 
@@ -229,12 +236,135 @@ def test_scoring_along_the_motion_finds_the_minimum_a_direct_solve_misses():
     assert np.isclose(optimize_topology(refined, p0, p1, sk).energy, along.energy, rtol=1e-6)
 
 
-@pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
-def test_odd_search_is_reproducible():
+def test_cusp_families_cover_exactly_the_odd_assignments():
+    for n, junctions in [(8, [3]), (9, [1, 4, 6]), (11, [0, 1, 5, 8, 9]), (7, [6])]:
+        jn = np.array(junctions)
+        stretches = cusp_stretches(n, jn)
+        assert sorted(np.concatenate(stretches).tolist()) == sorted(set(range(n)) - set(junctions))
+        for idx in stretches:  # consecutive along the loop, between two consecutive junctions
+            assert all((b - a) % n == 1 for a, b in zip(idx[:-1], idx[1:]))
+        family = set()
+        for idx in stretches:
+            for c in idx:
+                for label in (0, 1):
+                    a = cusp_assignment(jn, int(c), label)
+                    # the segment starting at the first junction carries the family's label
+                    assert segment_labels(a, np.array([jn.min() + 0.5]))[0] == label and a.cusp == c
+                    family.add(edge_labels(a, n))
+        assert family == {edge_labels(a, n) for a in enumerate_assignments(n, jn)}
+        assert len(family) == count_assignments(n, len(jn))
+
+
+def test_warm_start_carries_a_solution_between_cuts():
     refined, sk, p0, p1 = capsule_scene(junctions=(5,))
-    a = optimize_topology(refined, p0, p1, sk, seed=0)
-    b = optimize_topology(refined, p0, p1, sk, seed=0)
-    assert [x.tolist() for x in a.cut_assignment] == [x.tolist() for x in b.cut_assignment]
+    base = build_template(refined, p0, sk)
+    path = _path(base, sk, p0, p1)
+    stretch = cusp_stretches(20, base.junctions[0])[0]
+    here, next_to = (cusp_assignment(base.junctions[0], int(c), 0) for c in stretch[8:10])
+    _, inc0, x0 = evaluate(base, [here], path)
+    # onto its own topology the transfer is exact
+    assert np.array_equal(transfer_positions(x0, inc0.faces, inc0.faces, inc0.rest), x0)
+    # the cusp one vertex on: fold-free, and solved from there at the other pose alone it reaches the energy
+    # the whole path from rest reaches, in a fraction of the iterations
+    e1, inc1, _ = evaluate(base, [next_to], path)
+    start = transfer_positions(x0, inc0.faces, inc1.faces, inc1.rest)
+    assert count_flipped(start, inc1.faces) == 0
+    d = Deformer(inc1.rest, inc1.faces, inc1.handles)
+    warm, cold = d.solve(path[-1], x0=start), d.solve_along(path)
+    assert np.isclose(warm.energy, e1, rtol=1e-4) and np.isclose(cold.energy, e1)
+    assert warm.iterations < cold.iterations
+    # every vertex all of whose corners had one source keeps that source's position
+    src = {}
+    for f0, f1 in zip(inc0.faces, inc1.faces):
+        for u, v in zip(f0, f1):
+            src.setdefault(int(v), set()).add(int(u))
+    single = [v for v, us in src.items() if len(us) == 1]
+    assert np.array_equal(start[single], x0[[next(iter(src[v])) for v in single]])
+
+
+def test_a_cut_whose_neighbour_does_not_carry_over_is_scored_from_rest():
+    # the other cut of an even region sews the pocket where the front was: its neighbour's solution folds
+    # there, so the search deforms it from rest along the motion, to the energy evaluate() gives
+    refined, sk, p0, p1 = capsule_scene()
+    base = build_template(refined, p0, sk)
+    search = _Search(base, _path(base, sk, p0, p1), Solver())
+    a, b = alternating(base.junctions[0], 0), alternating(base.junctions[0], 1)
+    search.score([a])
+    scored = search.score([b], [next(iter(search.cache))])
+    assert not scored.warm
+    assert scored.energy == evaluate(base, [b], search.path)[0]
+
+
+@pytest.mark.parametrize("junctions", [(5,), (2, 8, 14), (1, 5, 9, 13, 17)])
+def test_odd_search_grows_linearly_with_the_junctions(junctions):
+    refined, sk, p0, p1 = capsule_scene(junctions=junctions)
+    tpl = optimize_topology(refined, p0, p1, sk)
+    k = len(junctions)
+    assert tpl.trials <= 2 * k + MAX_CUSP_MOVES  # the 2k probes, then the best family's walk
+    assert count_flipped(tpl.rest, tpl.faces) == 0
+    switches = tpl.cut_switches[0]
+    assert len(switches) == k + 1 and set(junctions) < set(switches.tolist())
+    # the recorded cut is the switching rule's: labels alternate at the switches, its energy is reproducible
+    base = build_template(refined, p0, sk)
+    cusp = int(np.setdiff1d(switches, junctions)[0])
+    a = Assignment(switches=switches, labels=tpl.cut_assignment[0], cusp=cusp)
+    assert np.array_equal(a.labels, alternating(switches, int(a.labels[0])).labels)
+    e, _, _ = evaluate(base, [a], _path(base, sk, p0, p1))
+    assert np.isclose(e, tpl.energy, rtol=1e-3)
+
+
+def two_region_scene(junctions=((3, 12), (2, 9))):
+    """The capsule scene with a second occlusion region: the upper arm (shoulder-elbow) drawn over the torso."""
+    refined, sk, p0, p1 = capsule_scene(junctions=junctions[0])
+    upper = capsule(p0[2, :2], p0[3, :2], 5, 2)
+    refined.boundaries.append(upper)
+    refined.junctions.append(np.array(junctions[1], np.int64))
+    refined.front_bones.append(np.array([2]))
+    mask = np.zeros_like(refined.occlusion[0], np.uint8)
+    cv2.fillPoly(mask, [np.round(upper).astype(np.int32)], 1)
+    refined.occlusion.append(mask.astype(bool))
+    return refined, sk, p0, p1
+
+
+def test_unchanged_regions_keep_their_cuts():
+    refined, sk, p0, p1 = two_region_scene()
+    first = optimize_topology(refined, p0, p1, sk)
+    assert first.reused_regions == [] and len(first.region_keys) == 2 and first.trials >= 3
+    again = optimize_topology(refined, p0, p1, sk, previous=first)
+    assert again.reused_regions == [0, 1] and again.trials == 1  # only the kept topology is deformed
+    assert [c.tolist() for c in again.cut_assignment] == [c.tolist() for c in first.cut_assignment]
+    assert [c.tolist() for c in again.cut_switches] == [c.tolist() for c in first.cut_switches]
+    assert any("without searching" in w for w in again.warnings)
+    # a click moved in region 1: region 0 keeps its cut, region 1 is searched again
+    moved = two_region_scene(junctions=((3, 12), (2, 10)))[0]
+    edited = optimize_topology(moved, p0, p1, sk, previous=first)
+    assert edited.reused_regions == [0] and edited.region_keys[0] == first.region_keys[0]
+    assert edited.region_keys[1] != first.region_keys[1] and edited.trials == 2
+    # another pose to score against changes every region
+    other = p1.copy()
+    other[4, 1] += 3.0
+    assert optimize_topology(refined, p0, other, sk, previous=first).reused_regions == []
+
+
+def test_a_region_out_of_budget_keeps_the_best_cut_so_far():
+    refined, sk, p0, p1 = capsule_scene(junctions=(2, 8, 14))
+    tpl = optimize_topology(refined, p0, p1, sk, solver=Solver(region_budget_s=0.0))
+    assert tpl.budget_regions == [0] and tpl.trials == 1  # the region's first topology only
+    assert any("budget" in w for w in tpl.warnings) and np.isfinite(tpl.energy)
+    assert count_flipped(tpl.rest, tpl.faces) == 0
+    full = optimize_topology(refined, p0, p1, sk)
+    assert full.budget_regions == [] and full.trials > 1 and full.energy <= tpl.energy + 1e-9
+
+
+@pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
+def test_odd_search_finds_the_exhaustive_minimum_and_is_reproducible():
+    refined, sk, p0, p1 = capsule_scene(junctions=(5,))
+    a = optimize_topology(refined, p0, p1, sk)
+    b = optimize_topology(refined, p0, p1, sk)
+    assert [x.tolist() for x in a.cut_switches] == [x.tolist() for x in b.cut_switches]
     assert a.energy == b.energy and a.trials == b.trials
-    assert 1 < a.trials <= 30
-    assert len(a.cut_assignment[0]) == 2 and count_flipped(a.rest, a.faces) == 0
+    base = build_template(refined, p0, sk)
+    path = _path(base, sk, p0, p1)
+    every = [evaluate(base, [o], path)[0] for o in enumerate_assignments(20, np.array([5]))]
+    assert a.trials < len(every) / 2  # 38 cuts, far fewer deformed
+    assert a.energy <= min(every) * (1 + 2e-3)
