@@ -79,16 +79,19 @@ def _tree_rss(pid: int) -> tuple[int, int]:
 
 # RIFE alone, as a user would run it: a new process, the network loaded from scratch, the keyframes bisected
 # to every output time (ops.evaluation.baselines.rife_direct), the frames written as PNG
-_RIFE_DIRECT = ("import json, sys\n"
+# (runtime: 'torch', or 'onnxruntime' with the export already in the cache, as a user's second run finds it)
+_RIFE_DIRECT = ("import inspect, json, sys\n"
                 "from pathlib import Path\n"
                 "from ops.blending.rife import load_rife\n"
                 "from ops.evaluation.baselines import rife_direct\n"
                 "from ops.shotio.image_io import read_image, to_rgba, write_image\n"
                 "from ops.shotio.load import load_shot\n"
-                "shot_dir, out = json.loads(sys.argv[1])\n"
+                "shot_dir, out, runtime, cache = json.loads(sys.argv[1])\n"
                 "shot = load_shot(shot_dir)\n"
                 "key0, key1 = (to_rgba(read_image(p)) for p in shot.keyframes)\n"
-                "frames = rife_direct(key0, key1, shot.times, load_rife())\n"
+                "has = 'runtime' in inspect.signature(load_rife).parameters  # older code: torch only\n"
+                "rife = load_rife(runtime=runtime, cache_dir=cache) if has else load_rife()\n"
+                "frames = rife_direct(key0, key1, shot.times, rife)\n"
                 "Path(out).mkdir(parents=True, exist_ok=True)\n"
                 "for i, f in enumerate(frames):\n"
                 "    write_image(Path(out) / f'{i:04d}.png', f)\n")
@@ -100,9 +103,14 @@ def cli(args: list[str], home: Path) -> dict:
     return process(_CLI, args, home)
 
 
-def rife_direct(shot: Path, out: Path, home: Path) -> dict:
-    """RIFE-direct on a shot as a new process (see _RIFE_DIRECT): wall and CPU seconds, peak RSS."""
-    return process(_RIFE_DIRECT, [str(shot), str(out)], home)
+def rife_direct(shot: Path, out: Path, home: Path, runtime: str = "torch") -> dict:
+    """RIFE-direct on a shot as a new process (see _RIFE_DIRECT) with the network run by `runtime`: wall and CPU
+    seconds, peak RSS. The ONNX export is read from the user's cache (resources/rife.py), as the pipeline does."""
+    try:
+        from resources.rife import default_cache_dir
+    except ImportError:  # code from before the ONNX runtime: torch only
+        return process(_RIFE_DIRECT, [str(shot), str(out), runtime, ""], home)
+    return process(_RIFE_DIRECT, [str(shot), str(out), runtime, str(default_cache_dir())], home)
 
 
 def process(code: str, args: list[str], home: Path) -> dict:
@@ -163,7 +171,9 @@ def run_sample(src: Path, tmp: Path) -> dict:
     edit = cli(["run", str(shot), "--out", str(out)], home) if move_key1_junction(shot) else None
     edited = json.loads((out / "report.json").read_text()) if edit else None
     rife = rife_direct(shot, tmp / f"rife-{src.name}", tmp / f"home-rife-{src.name}")
-    return {"cold": cold, "warm": warm, "edit": edit, "rife": rife, "report": report, "edited": edited}
+    rife_ort = rife_direct(shot, tmp / f"rife-ort-{src.name}", tmp / f"home-rife-{src.name}", "onnxruntime")
+    return {"cold": cold, "warm": warm, "edit": edit, "rife": rife, "rife_ort": rife_ort, "report": report,
+            "edited": edited}
 
 
 def critical_path(stages: dict[str, dict]) -> float:
@@ -185,20 +195,23 @@ def size_of(shot: Path) -> str:
 
 def print_samples(results: dict[str, dict]) -> None:
     print(f"\n{'shot':14s} {'size':>11s} | {'cold s':>7s} {'cpu':>6s} {'stages':>6s} {'ovh':>5s} {'ovh-cp':>6s} | "
-          f"{'warm s':>6s} {'cpu':>5s} {'torch':>5s} | {'edit s':>6s} {'cpu':>5s} {'ran':>3s} | {'rife s':>6s} {'cpu':>5s} | "
-          f"{'cold/R':>6s} {'warm/R':>6s} {'edit/R':>6s} | {'rss MB':>6s}")
+          f"{'warm s':>6s} {'cpu':>5s} {'torch':>5s} | {'edit s':>6s} {'cpu':>5s} {'ran':>3s} | {'R s':>5s} {'cpu':>5s} "
+          f"{'Ro s':>5s} {'cpu':>5s} | {'cold/R':>6s} {'warm/R':>6s} {'edit/R':>6s} {'cold/Ro':>7s} {'edit/Ro':>7s} | "
+          f"{'rss MB':>6s}")
     for name, r in results.items():
-        c, w, e, rd = r["cold"], r["warm"], r["edit"], r["rife"]
+        c, w, e, rd, ro = r["cold"], r["warm"], r["edit"], r["rife"], r["rife_ort"]
         stages = sum(s["seconds"] for s in r["report"]["stages"].values())
         chain = critical_path(r["report"]["stages"])
         ran = sum(1 for s in r["edited"]["stages"].values() if not s["cached"]) if e else 0
         edit = f"{e['wall']:6.1f} {e['cpu']:5.1f} {ran:3d}" if e else f"{'-':>6s} {'-':>5s} {'-':>3s}"
         edit_ratio = f"{e['wall'] / rd['wall']:6.2f}" if e else f"{'-':>6s}"
+        edit_ratio_o = f"{e['wall'] / ro['wall']:7.2f}" if e else f"{'-':>7s}"
         print(f"{name:14s} {r['size']:>11s} | {c['wall']:7.1f} {c['cpu']:6.1f} {stages:6.1f} {c['wall'] - stages:5.1f} {c['wall'] - chain:6.1f} | "
-              f"{w['wall']:6.2f} {w['cpu']:5.2f} {'yes' if w['torch'] else 'no':>5s} | {edit} | {rd['wall']:6.1f} {rd['cpu']:5.1f} | "
-              f"{c['wall'] / rd['wall']:6.2f} {w['wall'] / rd['wall']:6.2f} {edit_ratio} | {c['rss_max'] / 2**20:6.0f}")
+              f"{w['wall']:6.2f} {w['cpu']:5.2f} {'yes' if w['torch'] else 'no':>5s} | {edit} | {rd['wall']:5.1f} {rd['cpu']:5.1f} "
+              f"{ro['wall']:5.1f} {ro['cpu']:5.1f} | {c['wall'] / rd['wall']:6.2f} {w['wall'] / rd['wall']:6.2f} {edit_ratio} "
+              f"{c['wall'] / ro['wall']:7.2f} {edit_ratio_o} | {c['rss_max'] / 2**20:6.0f}")
     print("X/R: run X's wall seconds over RIFE-direct's (a new process: the network loaded, the keys bisected to "
-          "every output time) on the same shot in this run")
+          "every output time) on the same shot in this run, the network run by torch (R) or ONNX Runtime (Ro)")
 
 
 def print_stage_split(results: dict[str, dict]) -> None:

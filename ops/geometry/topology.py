@@ -189,6 +189,7 @@ class Solver:
     grad_tol: float = 0.01
     max_iter: int = 5000
     region_budget_s: float | None = None  # wall-clock seconds per region's search; None: no limit
+    method: str = "newton"  # Deformer's method (ops.geometry.deform.SOLVERS)
 
 
 def pose_path(pose_self: np.ndarray, pose_other: np.ndarray, parents: np.ndarray, steps: int = PATH_STEPS) -> list:
@@ -212,7 +213,7 @@ def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.nd
     topology's solution carried over, ops.geometry.warmstart) it is solved at the last targets only."""
     inc = incise(base, assignments)
     try:
-        d = Deformer(inc.rest, inc.faces, inc.handles, solver.mu)
+        d = Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method)
         if x0 is None:
             res = d.solve_along(path, grad_tol=solver.grad_tol, max_iter=solver.max_iter)
         else:
@@ -359,7 +360,7 @@ def region_key(refined: RefinedMasks, r: int, pose_self: np.ndarray, pose_other:
               np.asarray(pose_self, np.float64), np.asarray(pose_other, np.float64)):
         h.update(str(a.shape).encode())
         h.update(np.ascontiguousarray(a).tobytes())
-    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, PATH_STEPS)).encode())
+    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS)).encode())
     return h.hexdigest()[:24]
 
 
