@@ -219,14 +219,17 @@ class Deformer:
         energy of 289), where the Laplacian-preconditioned direction moves the whole sheet smoothly. A step the
         line search rejects is retried along the preconditioned gradient, with the pairs cleared.
         """
-        hist = deque(maxlen=memory)  # (s, y, 1 / s.y, P^-1 y) of the newest pairs
+        hist = deque(maxlen=memory)  # [s, y, 1 / s.y, P^-1 y] of the newest pairs (P^-1 y None until needed)
         energies = [E]
         gnorm = float(np.linalg.norm(G))
-        PG = self.precondition(G) if gnorm >= grad_tol else None
+        # P^-1 G of the current iterate: every iteration for "lbfgs" (its pairs' P^-1 y come from consecutive
+        # ones), only when an L-BFGS step is taken for "newton" (most of its solves never factorize P at all)
+        eager = self.method == "lbfgs"
+        PG = self.precondition(G) if eager and gnorm >= grad_tol else None
         lbfgs_left, backoff = 0, 0  # L-BFGS steps to take before Newton is tried again, and how many next time
         while gnorm >= grad_tol and len(energies) <= max_iter:
             D, cap = None, 0.0
-            if self.method == "newton" and lbfgs_left == 0:
+            if not eager and lbfgs_left == 0:
                 D, cap = self._newton_direction(X, G)
                 if cap < NEWTON_CAP:  # Newton meets the barrier: L-BFGS for a while, longer each time in a row
                     backoff = min(2 * backoff or 1, MAX_BACKOFF)
@@ -236,23 +239,25 @@ class Deformer:
             elif lbfgs_left:
                 lbfgs_left -= 1
             if D is None or cap < NEWTON_CAP:
+                PG = self.precondition(G) if PG is None else PG
                 D = -self._direction(G, PG, hist)
                 if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient
                     hist.clear()
                     D = -PG
                 cap = self._injective_step(X, D)
             step = self._line_search(X, D, E, G, T, cap)
-            if step is None and (hist or self.method == "newton"):
+            if step is None and (hist or not eager):
                 hist.clear()
+                PG = self.precondition(G) if PG is None else PG
                 D = -PG
                 step = self._line_search(X, D, E, G, T, self._injective_step(X, D))
             if step is None:
                 break
             t, E1, G1 = step
-            PG1 = self.precondition(G1)
+            PG1 = self.precondition(G1) if eager else None
             s, y = t * D, G1 - G
             if np.vdot(s, y) > 1e-16:
-                hist.append((s, y, 1.0 / np.vdot(s, y), PG1 - PG))
+                hist.append([s, y, 1.0 / np.vdot(s, y), PG1 - PG if eager else None])
             X, E, G, PG = X + s, E1, G1, PG1
             energies.append(E)
             gnorm = float(np.linalg.norm(G))
@@ -300,6 +305,9 @@ class Deformer:
 
     def _direction(self, G: np.ndarray, PG: np.ndarray, hist: deque) -> np.ndarray:
         """L-BFGS two-loop recursion with H0 = gamma P^-1: approximates H^-1 G, (n, 2); PG = P^-1 G."""
+        for pair in hist:  # pairs of Newton steps: their P^-1 y, once
+            if pair[3] is None:
+                pair[3] = self.precondition(pair[1])
         q, r = G.copy(), PG.copy()  # r follows P^-1 q through the first loop (P^-1 is linear)
         alphas = []
         for s, y, rho, Py in reversed(hist):

@@ -40,7 +40,7 @@ class NewtonSystem:
         dof = (2 * faces[:, :, None] + np.arange(2)).reshape(len(faces), 6)  # (m, 6): x0 y0 x1 y1 x2 y2
         rows = np.broadcast_to(dof[:, :, None], (len(faces), 6, 6)).ravel()
         cols = np.broadcast_to(dof[:, None, :], (len(faces), 6, 6)).ravel()
-        self._upper = rows <= cols  # the factorization reads the upper triangle only
+        self._upper = np.flatnonzero(rows <= cols)  # the factorization reads the upper triangle only
         diag = np.arange(self.size)
         key = (np.concatenate([cols[self._upper], diag]).astype(np.int64) * self.size
                + np.concatenate([rows[self._upper], diag]))
@@ -59,7 +59,7 @@ class NewtonSystem:
         # broadcast products (einsum's general path takes three times as long on these 2x2x2x2 blocks)
         T = H[:, :, :, 0, None, :] * a[:, None, None, 0, :, None] + H[:, :, :, 1, None, :] * a[:, None, None, 1, :, None]
         local = (a[:, 0, :, None, None, None] * T[:, 0, None] + a[:, 1, :, None, None, None] * T[:, 1, None]).reshape(-1)
-        data = np.bincount(self._slot, np.concatenate([local[self._upper], self._diagonal]), minlength=self._nnz)
+        data = np.bincount(self._slot, np.concatenate([local.take(self._upper), self._diagonal]), minlength=self._nnz)
         return sp.csc_matrix((data, self._indices, self._indptr), shape=(self.size, self.size))
 
     def full_matrix(self, X: np.ndarray) -> sp.csc_matrix:

@@ -22,7 +22,9 @@ def transfer_positions(x_from: np.ndarray, faces_from: np.ndarray, faces_to: np.
     position); ValueError if the face counts differ."""
     if faces_from.shape != faces_to.shape:
         raise ValueError(f"meshes of {len(faces_from)} and {len(faces_to)} faces do not correspond")
-    pairs = np.unique(np.stack([faces_to.ravel(), faces_from.ravel()], axis=1), axis=0)  # (target, source), sorted
+    n_from = int(faces_from.max()) + 1 if faces_from.size else 1
+    key = np.unique(faces_to.ravel().astype(np.int64) * n_from + faces_from.ravel())  # (target, source), sorted
+    pairs = np.stack([key // n_from, key % n_from], axis=1)
     x = np.array(rest_to, dtype=np.float64)
     first = np.ones(len(pairs), bool)
     first[1:] = pairs[1:, 0] != pairs[:-1, 0]

@@ -27,7 +27,6 @@ from ops.geometry.topology import (
     pose_path,
     segment_labels,
 )
-from ops.geometry.warmstart import transfer_positions
 from ops.types import RefinedMasks, Skeleton, Template
 from tests.ops.geometry.test_template import capsule, capsule_scene
 
@@ -253,33 +252,6 @@ def test_cusp_families_cover_exactly_the_odd_assignments():
                     family.add(edge_labels(a, n))
         assert family == {edge_labels(a, n) for a in enumerate_assignments(n, jn)}
         assert len(family) == count_assignments(n, len(jn))
-
-
-def test_warm_start_carries_a_solution_between_cuts():
-    refined, sk, p0, p1 = capsule_scene(junctions=(5,))
-    base = build_template(refined, p0, sk)
-    path = _path(base, sk, p0, p1)
-    stretch = cusp_stretches(20, base.junctions[0])[0]
-    here, next_to = (cusp_assignment(base.junctions[0], int(c), 0) for c in stretch[8:10])
-    _, inc0, x0 = evaluate(base, [here], path)
-    # onto its own topology the transfer is exact
-    assert np.array_equal(transfer_positions(x0, inc0.faces, inc0.faces, inc0.rest), x0)
-    # the cusp one vertex on: fold-free, and solved from there at the other pose alone it reaches the energy
-    # the whole path from rest reaches, in a fraction of the iterations
-    e1, inc1, _ = evaluate(base, [next_to], path)
-    start = transfer_positions(x0, inc0.faces, inc1.faces, inc1.rest)
-    assert count_flipped(start, inc1.faces) == 0
-    d = Deformer(inc1.rest, inc1.faces, inc1.handles)
-    warm, cold = d.solve(path[-1], x0=start), d.solve_along(path)
-    assert np.isclose(warm.energy, e1, rtol=1e-4) and np.isclose(cold.energy, e1)
-    assert warm.iterations < cold.iterations
-    # every vertex all of whose corners had one source keeps that source's position
-    src = {}
-    for f0, f1 in zip(inc0.faces, inc1.faces):
-        for u, v in zip(f0, f1):
-            src.setdefault(int(v), set()).add(int(u))
-    single = [v for v, us in src.items() if len(us) == 1]
-    assert np.array_equal(start[single], x0[[next(iter(src[v])) for v in single]])
 
 
 def test_a_cut_whose_neighbour_does_not_carry_over_is_scored_from_rest():
