@@ -263,14 +263,25 @@ class _Search:
         return self.cache[key]
 
     def _warm_start(self, assignments: list[Assignment], neighbours) -> np.ndarray | None:
-        """Fold-free (n, 2) pixels carried over from the first neighbour that allows it, else None."""
+        """Fold-free (n, 2) pixels carried over from the first neighbour that allows it, else None.
+
+        A region whose cut is the neighbour's with every label flipped (the other cut of an even count, the
+        other family of an odd one at the same cusp) sews its pocket where the neighbour sewed its front: its
+        front faces take the neighbour's pocket faces' corners and its pocket faces the front ones', so every
+        face keeps an unfolded shape (carried corner by corner, about half of them fold)."""
         inc = None
         for k in neighbours:
             src = self.cache.get(k)
             if src is None or src.x is None:
                 continue
             inc = inc or incise(self.base, assignments)
-            x0 = transfer_positions(src.x, src.inc.faces, inc.faces, inc.rest)
+            source_faces = src.inc.faces.copy()
+            for r, (mine, theirs) in enumerate(zip(assignments, src.assignments)):
+                if np.array_equal(mine.switches, theirs.switches) and np.array_equal(mine.labels, 1 - theirs.labels):
+                    front = np.flatnonzero(self.base.face_region == r)
+                    pocket = np.flatnonzero(src.inc.face_layer == r + 1)
+                    source_faces[front], source_faces[pocket] = src.inc.faces[pocket], src.inc.faces[front]
+            x0 = transfer_positions(src.x, source_faces, inc.faces, inc.rest)
             if count_flipped(x0, inc.faces) == 0:
                 return x0
         return None
@@ -327,10 +338,10 @@ def _search_odd(region: _Region, n: int, junctions: np.ndarray) -> Assignment:
         scored[(label, s, i)] = region.energy(a, near)
         return scored[(label, s, i)]
 
-    for label in (0, 1):
-        for s, idx in enumerate(stretches):
-            near = [last[label]] if label in last else []
-            near += [last[1 - label]] if 1 - label in last else []
+    for s, idx in enumerate(stretches):  # label 0 from the previous stretch's probe, label 1 from label 0's
+        for label in (0, 1):
+            near = [cusp_assignment(junctions, int(idx[len(idx) // 2]), 0)] if label else []
+            near += [last[label]] if label in last else []
             probe(label, s, len(idx) // 2, near)
             last[label] = cusp_assignment(junctions, int(idx[len(idx) // 2]), label)
     (label, s, i), best = min(scored.items(), key=lambda kv: kv[1])
