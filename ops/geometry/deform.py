@@ -4,26 +4,34 @@ Minimizes the symmetric Dirichlet energy plus the pose term (ops.energy) by
 one of two descent methods (Deformer's `method`), both with the same
 injectivity-capped line search:
 
-- "newton" (default): projected Newton steps (ops.geometry.newton: each face's
-  Hessian projected to positive semi-definite, the sparse system refactorized
-  per iterate). Where the injectivity bound would cut a Newton step below
-  NEWTON_CAP the step is L-BFGS's instead, for 1, 2, 4 .. MAX_BACKOFF
-  iterations before Newton is tried again: far from a minimum (a pose far from
-  the start) Newton aims through folds and then creeps along the barrier into
-  a crumpled minimum (the tail's direct solve to its curled pose: 920 steps to
-  an energy of 289), where the Laplacian-preconditioned direction moves the
-  whole sheet smoothly. Near a minimum (each frame from its neighbour, each
-  warm cut candidate) it takes 5-15x fewer iterations than L-BFGS.
-- "lbfgs": the Laplacian-preconditioned L-BFGS it replaced (and whose steps it
-  borrows): the two-loop recursion uses the factorized matrix P = 8 (-L) +
-  2 mu H as initial inverse Hessian (L = cotangent Laplacian of the normalized
-  rest mesh, H = handle indicator; 8 (-L) is the SD Hessian scale at the
-  identity, 2 mu that of the pose term), scaled each iteration by
-  s^T y / y^T P^-1 y. P is factorized once per mesh (splu). One solve with P
-  per iteration: applying P^-1 is linear, so the recursion's
-  P^-1 q = P^-1 g - sum a_i P^-1 y_i is assembled from the preconditioned
-  gradient of each iterate and P^-1 y_i = P^-1 g_(i+1) - P^-1 g_i, kept with
-  its pair. Every step of either method updates the pairs.
+- "newton" (the cut search's, ops.geometry.topology.Solver): projected Newton
+  steps (ops.geometry.newton: each face's Hessian projected to positive
+  semi-definite, the sparse system refactorized per iterate). Where the
+  injectivity bound would cut a Newton step below NEWTON_CAP the step is
+  L-BFGS's instead, for 1, 2, 4 .. MAX_BACKOFF iterations before Newton is
+  tried again: far from a minimum (a pose far from the start) Newton aims
+  through folds and then creeps along the barrier into a crumpled minimum (the
+  tail's direct solve to its curled pose: 920 steps to an energy of 289),
+  where the Laplacian-preconditioned direction moves the whole sheet smoothly.
+  Near a minimum (each warm cut candidate) it takes 5-15x fewer iterations.
+  Not the default: its steps are 5-7x dearer, and with the gradient-norm stop
+  it can halt on the flat slope by a saddle that L-BFGS passes (arm_cross
+  key0's last frame: 3.8 px from the minimum, energy 4.7548 against 4.7534;
+  the frames of all samples deformed by it cost arm_cross 0.11 dB), while over
+  the samples' frame sequences it saves a third of the time; the lanes' direct
+  solves from rest to the other key pose land in other crumpled minima with it
+  (docs/performance.md).
+- "lbfgs" (the default: the lanes' frames and direct solves): the
+  Laplacian-preconditioned L-BFGS, whose steps "newton" borrows. The two-loop
+  recursion uses the factorized matrix P = 8 (-L) + 2 mu H as initial inverse
+  Hessian (L = cotangent Laplacian of the normalized rest mesh, H = handle
+  indicator; 8 (-L) is the SD Hessian scale at the identity, 2 mu that of the
+  pose term), scaled each iteration by s^T y / y^T P^-1 y. P is factorized
+  once per mesh (splu). One solve with P per iteration: applying P^-1 is
+  linear, so the recursion's P^-1 q = P^-1 g - sum a_i P^-1 y_i is assembled
+  from the preconditioned gradient of each iterate and
+  P^-1 y_i = P^-1 g_(i+1) - P^-1 g_i, kept with its pair. Every step of
+  either method updates the pairs.
 
 Connected components without a handle make both systems singular (translations
 are free): those vertices get a tiny multiple of the lumped mass matrix on the
@@ -106,7 +114,7 @@ def max_injective_step(X: np.ndarray, D: np.ndarray, faces: np.ndarray) -> float
     return float(min(1.0, 0.8 * first_fold_time(X, D, faces)))
 
 
-SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (default), preconditioned L-BFGS
+SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut search's), preconditioned L-BFGS
 NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
 MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: 0.3 and 16 keep
 #                   the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
@@ -116,7 +124,7 @@ class Deformer:
     """Prepares one template's energy once; `solve` deforms it to handle targets (projected Newton or L-BFGS)."""
 
     def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
-                 method: str = "newton"):
+                 method: str = "lbfgs"):
         """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids;
         method: one of SOLVERS."""
         if method not in SOLVERS:
@@ -188,17 +196,22 @@ class Deformer:
         grad_tol: float = 0.01,
         max_iter: int = 5000,
         memory: int = 10,
+        method: str | None = None,
     ) -> DeformResult:
         """Minimize energy for handle targets (h, 2) pixels from fold-free x0 (n, 2) pixels (rest if None).
 
         Stops at gradient norm grad_tol (normalized units) or after max_iter iterations; memory: the L-BFGS
-        pairs kept (both methods keep them: "newton" takes L-BFGS steps at the injectivity barrier)."""
+        pairs kept (both methods keep them: "newton" takes L-BFGS steps at the injectivity barrier); method: one
+        of SOLVERS for this solve (default: the Deformer's)."""
         T = self.norm.to_norm(targets)
         X = self.rest_n.copy() if x0 is None else self.norm.to_norm(x0)
         E, G = self.energy_fn.value_grad(X, T)
         if not np.isfinite(E):
             raise ValueError("x0 folds a triangle: the deformation must start from a fold-free state")
-        X, E, G, energies = self._iterations(X, E, G, T, grad_tol, max_iter, memory)
+        method = method or self.method
+        if method not in SOLVERS:
+            raise ValueError(f"method must be one of {SOLVERS}, got {method!r}")
+        X, E, G, energies = self._iterations(X, E, G, T, grad_tol, max_iter, memory, method)
         gnorm = float(np.linalg.norm(G))
         return DeformResult(
             x=self.norm.to_pixels(X),
@@ -209,7 +222,7 @@ class Deformer:
             energy_history=np.asarray(energies),
         )
 
-    def _iterations(self, X, E, G, T, grad_tol: float, max_iter: int, memory: int):
+    def _iterations(self, X, E, G, T, grad_tol: float, max_iter: int, memory: int, method: str):
         """Descend from (X, E, G) at normalized targets T until |G| < grad_tol: (X, E, G, energies per iterate).
 
         Every step updates the L-BFGS pairs. "lbfgs" steps along the L-BFGS direction; "newton" along the
@@ -224,7 +237,7 @@ class Deformer:
         gnorm = float(np.linalg.norm(G))
         # P^-1 G of the current iterate: every iteration for "lbfgs" (its pairs' P^-1 y come from consecutive
         # ones), only when an L-BFGS step is taken for "newton" (most of its solves never factorize P at all)
-        eager = self.method == "lbfgs"
+        eager = method == "lbfgs"
         PG = self.precondition(G) if eager and gnorm >= grad_tol else None
         lbfgs_left, backoff = 0, 0  # L-BFGS steps to take before Newton is tried again, and how many next time
         while gnorm >= grad_tol and len(energies) <= max_iter:
