@@ -8,8 +8,8 @@ masks computed first, not timed). Per keyframe and per solver, on the same probl
   deformation iterations it took, the topologies it deformed and the winner's energy;
 - texture: the lane's direct solve from rest to the other key pose (ops/appearance/lane.py texture_lane);
 - frames: the 9-frame deformation, each frame from its neighbour (deform_sequence), and its folds;
-both on the mesh the default solver's search chose. Solvers: `newton` (projected Newton, L-BFGS steps where the
-injectivity bound blocks it; the default) and `lbfgs` (the Laplacian-preconditioned L-BFGS it replaced).
+both on the mesh the Newton search chose. Solvers: `newton` (projected Newton, L-BFGS steps where the
+injectivity bound blocks it: the cut search's) and `lbfgs` (the Laplacian-preconditioned L-BFGS: the lanes').
 --slim adds libigl's SLIM (igl.slim_solve, symmetric Dirichlet, the handles as soft constraints) on the same
 frames, from the same starts: its iterations, seconds and the energy it reaches, in our energy.
 
@@ -169,7 +169,7 @@ def run(problems: list[tuple], slim: bool) -> None:
             with IterationCount() as count:
                 tpl, search_s = cpu_timed(lambda: optimize_topology(refined, me, other, skeleton,
                                                                     solver=Solver(method=method)))
-            chosen = chosen or tpl  # the default solver's template: the mesh both solvers deform below
+            chosen = chosen or tpl  # the Newton search's template: the mesh both solvers deform below
             d = Deformer(chosen.rest, chosen.faces, chosen.handles, method=method)
             tex, tex_s = cpu_timed(lambda: d.solve(chosen.handle_targets(other)))
             (X, E, it), seq_s = cpu_timed(lambda: deform_sequence(chosen, poses, "backward" if k else "forward", d))
