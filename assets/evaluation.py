@@ -69,7 +69,7 @@ def _single_layer(env: StageEnv) -> StageResult:
     inpainter = env.resource("inpainter").get()
     solver = Solver(s.mu, s.grad_tol, s.max_iter)
     templates = [optimize_topology(refined[k], shot.key_pose(k), shot.key_pose(k), shot.skeleton,
-                                   mode="single-layer", seed=s.seed, solver=solver) for k in range(shot.n_keys)]
+                                   mode="single-layer", solver=solver) for k in range(shot.n_keys)]
 
     def lane(seg: int, k: int, other: int | None, backward: bool):
         textured, _ = texture_lane(templates[k], refined[k], None if other is None else refined[other],

@@ -11,7 +11,7 @@ from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
 from ops.segmentation.refine import refine_masks
 from ops.shotio.image_io import read_image
-from ops.types import DeformedSequence, Masks, RefinedMasks, TexturedTemplate
+from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedTemplate
 
 from .graph import side
 from .stage import StageEnv, StageResult, stage_asset
@@ -87,17 +87,28 @@ def _template(k: int):
         """2.5D template: mesh with pockets, handles and the cut topology of least energy (§4.2-4.4)."""
         shot, s = env.shot, env.settings
         refined: RefinedMasks = env.read(f"key{k}/refined_masks")
+        solver = Solver(s.mu, s.grad_tol, s.max_iter, s.topology_budget)
         template = optimize_topology(refined, shot.key_pose(k), _targets(shot, k), shot.skeleton,
-                                     mode=s.template_mode, seed=s.seed, solver=Solver(s.mu, s.grad_tol, s.max_iter))
+                                     mode=s.template_mode, solver=solver, previous=_previous_template(env, k))
         for w in template.warnings:
             env.context.log.warning(w)
         meta = {"V": len(template.rest), "F": len(template.faces), "layers": int(template.face_layer.max()) + 1,
                 "regions": len(template.cut_assignment), "trials": template.trials, "energy": float(template.energy),
+                "regions_reused": len(template.reused_regions), "regions_out_of_budget": len(template.budget_regions),
                 "mode": template.mode, "warnings": template.warnings}
         img = preview.wireframe(env.drawing(k), template.rest, template.faces, template.face_layer, template.handles)
         return StageResult(template, meta, img)
 
     return compute
+
+
+def _previous_template(env: StageEnv, k: int) -> Template | None:
+    """The template an earlier run stored for this keyframe (its unchanged regions keep their cuts), or None."""
+    try:
+        previous = env.store.read(f"key{k}/template", env.partition)
+    except Exception:  # none yet, or damaged: search every region
+        return None
+    return previous if isinstance(previous, Template) else None
 
 
 def _check_template_folds(template, env) -> tuple[bool, str]:

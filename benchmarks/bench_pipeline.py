@@ -1,7 +1,11 @@
 """End-to-end numbers of `inbetween` as a user runs it (a new process per command), in one report:
 
 1. per sample shot: cold run (fresh INBETWEEN_HOME), warm rerun (nothing changed: must not start Dagster or
-   import torch), rerun after moving key1's first T-junction by 1 px; wall and CPU seconds, and the Dagster
+   import torch), rerun after moving key1's first T-junction by 1 px, and RIFE-direct (a new process that loads
+   the network from scratch and interpolates the two keyframes to every output time, as
+   ops/evaluation/baselines.py rife_direct does); each run's time divided by RIFE-direct's on the same shot in
+   the same run (machines of this kind differ up to 2.7x per core: the ratios compare, the seconds do not);
+   wall and CPU seconds, and the Dagster
    overhead of the cold run: its wall time minus the stages' compute seconds (`ovh`, issue 11's measure; the
    two keyframe lanes compute at once, so their seconds overlap and this understates it), and its wall time
    minus the longest chain of stage seconds through the graph (`ovh-cp`: what no ordering of the stages on
@@ -9,9 +13,13 @@
 2. the per-stage split of every cold run (seconds from report.json);
 3. scaling over resolution (arm_cross resized to 256, 384, 512, 1024 px, 9 frames) and over frame count
    (arm_cross at 384 px with only its key poses, `frames` = 5, 9, 17, 33): cold wall, rife_matrix, peak RSS;
-4. `batch` over the sample shots: wall time and peak RSS (largest process, and the whole process tree).
+4. `batch` over the sample shots: wall time and peak RSS (largest process, and the whole process tree);
+5. adding 5 T-junctions to a shot (`--add-junctions`, default arm_cross): a cold run of the shot as it is and
+   one with 5 more clicks on its occlusion boundaries (each in the middle of the longest stretch of boundary
+   without one), per stage seconds before and after and their ratio.
 
     python benchmarks/bench_pipeline.py [--shots data_samples] [--only arm_cross ...] [--no-scaling] [--no-batch]
+                                        [--add-junctions SHOT | --no-add-junctions]
 
 The machine is shared and its wall times are noisy: CPU seconds are printed beside them, and the load average
 before and after. Targets (issue 11, measured on a machine ~2.5x faster than the 2-core one here): unchanged
@@ -29,6 +37,8 @@ import tempfile
 import threading
 import time
 from pathlib import Path
+
+import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -67,14 +77,51 @@ def _tree_rss(pid: int) -> tuple[int, int]:
     return sum(sizes), max(sizes, default=0)
 
 
+# RIFE alone, as a user would run it: a new process, the network loaded from scratch, the keyframes bisected
+# to every output time (ops.evaluation.baselines.rife_direct), the frames written as PNG
+# (runtime: 'torch', or 'onnxruntime' with the export already in the cache, as a user's second run finds it)
+_RIFE_DIRECT = ("import inspect, json, sys\n"
+                "from pathlib import Path\n"
+                "from ops.blending.rife import load_rife\n"
+                "from ops.evaluation.baselines import rife_direct\n"
+                "from ops.shotio.image_io import read_image, to_rgba, write_image\n"
+                "from ops.shotio.load import load_shot\n"
+                "shot_dir, out, runtime, cache = json.loads(sys.argv[1])\n"
+                "shot = load_shot(shot_dir)\n"
+                "key0, key1 = (to_rgba(read_image(p)) for p in shot.keyframes)\n"
+                "has = 'runtime' in inspect.signature(load_rife).parameters  # older code: torch only\n"
+                "rife = load_rife(runtime=runtime, cache_dir=cache) if has else load_rife()\n"
+                "frames = rife_direct(key0, key1, shot.times, rife)\n"
+                "Path(out).mkdir(parents=True, exist_ok=True)\n"
+                "for i, f in enumerate(frames):\n"
+                "    write_image(Path(out) / f'{i:04d}.png', f)\n")
+
+
 def cli(args: list[str], home: Path) -> dict:
     """Run `inbetween ARGS` as a new process; wall and CPU seconds, peak RSS (tree sum and largest process),
     and whether it imported torch and Dagster."""
+    return process(_CLI, args, home)
+
+
+def rife_direct(shot: Path, out: Path, home: Path, runtime: str = "torch") -> dict:
+    """RIFE-direct on a shot as a new process (see _RIFE_DIRECT) with the network run by `runtime`: wall and CPU
+    seconds, peak RSS. The ONNX export is read from the user's cache (resources/rife.py), as the pipeline does."""
+    try:
+        from resources.rife import default_cache_dir
+    except ImportError:  # code from before the ONNX runtime: torch only
+        return process(_RIFE_DIRECT, [str(shot), str(out), runtime, ""], home)
+    return process(_RIFE_DIRECT, [str(shot), str(out), runtime, str(default_cache_dir())], home)
+
+
+def process(code: str, args: list[str], home: Path) -> dict:
+    """Run `python -c code json(args)` as a new process with its own INBETWEEN_HOME; wall and CPU seconds,
+    peak RSS (tree sum and largest process), and whether it imported torch and Dagster (for the CLI)."""
+    home.mkdir(parents=True, exist_ok=True)
     modules = home.parent / f".modules-{os.getpid()}.json"
     env = {**os.environ, "INBETWEEN_HOME": str(home), "DAGSTER_HOME": str(home / "dagster"),
            "BENCH_MODULES": str(modules), "PYTHONPATH": str(ROOT)}
     start = time.perf_counter()
-    proc = subprocess.Popen([sys.executable, "-c", _CLI, json.dumps(args)], env=env, cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-c", code, json.dumps(args)], env=env, cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     peak = [0, 0]
     done = threading.Event()
@@ -93,7 +140,7 @@ def cli(args: list[str], home: Path) -> dict:
     flags = json.loads(modules.read_text()) if modules.exists() else {}
     modules.unlink(missing_ok=True)
     if os.waitstatus_to_exitcode(status) != 0:
-        raise RuntimeError(f"inbetween {' '.join(args)} failed:\n{err[-2000:]}")
+        raise RuntimeError(f"{' '.join(args)} failed:\n{err[-2000:]}")
     peak_largest = max(peak[1], usage.ru_maxrss * 1024)
     return {"wall": wall, "cpu": usage.ru_utime + usage.ru_stime, "rss_sum": max(peak[0], peak_largest),
             "rss_max": peak_largest, "torch": flags.get("torch"), "dagster": flags.get("dagster")}
@@ -123,7 +170,10 @@ def run_sample(src: Path, tmp: Path) -> dict:
     warm = cli(["run", str(shot), "--out", str(tmp / f"out2-{src.name}")], home)
     edit = cli(["run", str(shot), "--out", str(out)], home) if move_key1_junction(shot) else None
     edited = json.loads((out / "report.json").read_text()) if edit else None
-    return {"cold": cold, "warm": warm, "edit": edit, "report": report, "edited": edited}
+    rife = rife_direct(shot, tmp / f"rife-{src.name}", tmp / f"home-rife-{src.name}")
+    rife_ort = rife_direct(shot, tmp / f"rife-ort-{src.name}", tmp / f"home-rife-{src.name}", "onnxruntime")
+    return {"cold": cold, "warm": warm, "edit": edit, "rife": rife, "rife_ort": rife_ort, "report": report,
+            "edited": edited}
 
 
 def critical_path(stages: dict[str, dict]) -> float:
@@ -145,15 +195,23 @@ def size_of(shot: Path) -> str:
 
 def print_samples(results: dict[str, dict]) -> None:
     print(f"\n{'shot':14s} {'size':>11s} | {'cold s':>7s} {'cpu':>6s} {'stages':>6s} {'ovh':>5s} {'ovh-cp':>6s} | "
-          f"{'warm s':>6s} {'cpu':>5s} {'torch':>5s} | {'edit s':>6s} {'cpu':>5s} {'ran':>3s} | {'rss MB':>6s}")
+          f"{'warm s':>6s} {'cpu':>5s} {'torch':>5s} | {'edit s':>6s} {'cpu':>5s} {'ran':>3s} | {'R s':>5s} {'cpu':>5s} "
+          f"{'Ro s':>5s} {'cpu':>5s} | {'cold/R':>6s} {'warm/R':>6s} {'edit/R':>6s} {'cold/Ro':>7s} {'edit/Ro':>7s} | "
+          f"{'rss MB':>6s}")
     for name, r in results.items():
-        c, w, e = r["cold"], r["warm"], r["edit"]
+        c, w, e, rd, ro = r["cold"], r["warm"], r["edit"], r["rife"], r["rife_ort"]
         stages = sum(s["seconds"] for s in r["report"]["stages"].values())
         chain = critical_path(r["report"]["stages"])
         ran = sum(1 for s in r["edited"]["stages"].values() if not s["cached"]) if e else 0
         edit = f"{e['wall']:6.1f} {e['cpu']:5.1f} {ran:3d}" if e else f"{'-':>6s} {'-':>5s} {'-':>3s}"
+        edit_ratio = f"{e['wall'] / rd['wall']:6.2f}" if e else f"{'-':>6s}"
+        edit_ratio_o = f"{e['wall'] / ro['wall']:7.2f}" if e else f"{'-':>7s}"
         print(f"{name:14s} {r['size']:>11s} | {c['wall']:7.1f} {c['cpu']:6.1f} {stages:6.1f} {c['wall'] - stages:5.1f} {c['wall'] - chain:6.1f} | "
-              f"{w['wall']:6.2f} {w['cpu']:5.2f} {'yes' if w['torch'] else 'no':>5s} | {edit} | {c['rss_max'] / 2**20:6.0f}")
+              f"{w['wall']:6.2f} {w['cpu']:5.2f} {'yes' if w['torch'] else 'no':>5s} | {edit} | {rd['wall']:5.1f} {rd['cpu']:5.1f} "
+              f"{ro['wall']:5.1f} {ro['cpu']:5.1f} | {c['wall'] / rd['wall']:6.2f} {w['wall'] / rd['wall']:6.2f} {edit_ratio} "
+              f"{c['wall'] / ro['wall']:7.2f} {edit_ratio_o} | {c['rss_max'] / 2**20:6.0f}")
+    print("X/R: run X's wall seconds over RIFE-direct's (a new process: the network loaded, the keys bisected to "
+          "every output time) on the same shot in this run, the network run by torch (R) or ONNX Runtime (Ro)")
 
 
 def print_stage_split(results: dict[str, dict]) -> None:
@@ -193,6 +251,64 @@ def print_scaling(src: Path, tmp: Path, sizes: list[int], frame_counts: list[int
               f"{r['rss_max'] / 2**20:6.0f}", flush=True)
 
 
+def extra_junctions(home: Path, partition: str, count: int) -> tuple[int, list[list[float]]]:
+    """(key, count (x, y) pixels) T-junctions to add: on the occlusion boundaries of the key with more boundary
+    (refined masks of a run in `home`), each in the middle of the longest stretch of boundary left without a
+    junction, so the clicks spread over the regions and along them."""
+    from resources.store import Store
+
+    store = Store(home / "storage")
+    refined = [store.read(f"key{k}/refined_masks", partition) for k in (0, 1)]
+    length = [sum(float(np.linalg.norm(np.diff(b, axis=0, append=b[:1]), axis=1).sum()) for b in r.boundaries)
+              for r in refined]
+    k = int(np.argmax(length))
+    if not refined[k].boundaries:
+        raise RuntimeError(f"{partition} has no occlusion region to click on")
+    loops = []  # per region: closed-polyline arc lengths of the vertices, the perimeter, the junctions' arc lengths
+    for b, jn in zip(refined[k].boundaries, refined[k].junctions):
+        seg = np.linalg.norm(np.diff(b, axis=0, append=b[:1]), axis=1)
+        arc = np.concatenate([[0.0], np.cumsum(seg)])
+        loops.append((b, arc, list(arc[np.asarray(jn, np.int64)])))
+    added = []
+    for _ in range(count):
+        best = None
+        for r, (_, arc, cuts) in enumerate(loops):
+            marks = sorted(cuts) or [0.0]  # a loop without junctions: one stretch, the whole perimeter
+            gaps = np.diff(marks + [marks[0] + arc[-1]])
+            g = int(np.argmax(gaps))
+            if best is None or gaps[g] > best[0]:
+                best = (float(gaps[g]), r, (marks[g] + gaps[g] / 2) % arc[-1])
+        _, r, s = best
+        b, arc, cuts = loops[r]
+        i = int(np.searchsorted(arc, s, side="right") - 1)
+        u = (s - arc[i]) / max(arc[i + 1] - arc[i], 1e-12)
+        added.append((b[i] + u * (b[(i + 1) % len(b)] - b[i])).tolist())
+        cuts.append(s)
+    return k, added
+
+
+def print_added_junctions(src: Path, tmp: Path, count: int) -> None:
+    """Cold runs of a shot and of the shot with `count` more T-junctions: per stage seconds and their ratio."""
+    base = shutil.copytree(src, tmp / "junctions" / "before" / src.name)
+    home0 = tmp / "junctions-home-before"
+    before = cli(["run", str(base), "--out", str(tmp / "junctions-out-before")], home0)
+    st0 = json.loads((tmp / "junctions-out-before" / "report.json").read_text())["stages"]
+    k, points = extra_junctions(home0, src.name, count)
+    shot = shutil.copytree(src, tmp / "junctions" / "after" / src.name)
+    data = json.loads((shot / "shot.json").read_text())
+    data["t_junctions"][k] = list(data["t_junctions"][k]) + points
+    (shot / "shot.json").write_text(json.dumps(data, indent=1))
+    after = cli(["run", str(shot), "--out", str(tmp / "junctions-out-after")], tmp / "junctions-home-after")
+    st1 = json.loads((tmp / "junctions-out-after" / "report.json").read_text())["stages"]
+    print(f"\nadding {count} T-junctions to {src.name}'s key{k} ({len(data['t_junctions'][k]) - count} -> "
+          f"{len(data['t_junctions'][k])}): cold run {before['wall']:.1f} s ({before['cpu']:.1f} s CPU) -> "
+          f"{after['wall']:.1f} s ({after['cpu']:.1f} s CPU), {after['wall'] / before['wall']:.2f}x")
+    print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}")
+    for stage in st0:
+        a, b = st0[stage]["seconds"], st1[stage]["seconds"]
+        print(f"{stage:28s} {a:8.2f} {b:8.2f} {b / a if a > 0.005 else float('nan'):6.2f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--shots", default=str(ROOT / "data_samples"))
@@ -201,6 +317,8 @@ def main() -> None:
     ap.add_argument("--frames", type=int, nargs="*", default=[5, 9, 17, 33])
     ap.add_argument("--no-scaling", action="store_true")
     ap.add_argument("--no-batch", action="store_true")
+    ap.add_argument("--add-junctions", default="arm_cross", help="shot of the 'adding 5 T-junctions' case")
+    ap.add_argument("--no-add-junctions", action="store_true")
     args = ap.parse_args()
     print(f"{load()}, {os.cpu_count()} CPUs; times in seconds; cpu = user + sys of the process")
     with tempfile.TemporaryDirectory() as tmp:
@@ -213,6 +331,8 @@ def main() -> None:
             print(f"  {name} done ({load()})", file=sys.stderr, flush=True)
         print_samples(results)
         print_stage_split(results)
+        if not args.no_add_junctions:
+            print_added_junctions(Path(args.shots) / args.add_junctions, tmp, 5)
         if not args.no_scaling:
             print_scaling(Path(args.shots) / "arm_cross", tmp, args.sizes, args.frames)
         if not args.no_batch:

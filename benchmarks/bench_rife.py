@@ -1,12 +1,16 @@
-"""Benchmark RIFE on the CPU: seconds per midpoint at 256/384/512 px and one image-matrix build.
+"""Benchmark RIFE on the CPU, torch against ONNX Runtime: seconds per midpoint at 256/384/512 px and one
+image-matrix build, each runtime measured right after the other on the same inputs, and how far apart their
+frames are (PSNR of one runtime's midpoint against the other's, dB; inf = identical).
 
-Run: .venv/bin/python benchmarks/bench_rife.py [--threads 2] [--repeats 5]
+Run: .venv/bin/python benchmarks/bench_rife.py [--threads 2] [--repeats 5] [--cache DIR]
 Target: the matrix of a 9-frame 384 x 384 shot at depth 3 (63 network calls) in <= 12 s on 2 cores.
-Wall time on a shared machine is noisy; CPU seconds are printed beside it.
+Wall time on a shared machine is noisy; CPU seconds are printed beside it. The ONNX export is cached in
+--cache (default: a temporary directory, so the first load pays the export, printed separately).
 """
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 
 import numpy as np
@@ -14,7 +18,7 @@ import torch
 from scipy.ndimage import gaussian_filter
 
 from ops.blending.image_matrix import build_image_matrix
-from ops.blending.rife import Rife, load_rife
+from ops.blending.rife import RUNTIMES, Rife, load_rife
 
 
 def smooth_frames(t: int, size: int, seed: int) -> np.ndarray:
@@ -46,24 +50,42 @@ def bench_matrix(rife: Rife, frames: int, size: int, depth: int, batch: int) -> 
     return timed(lambda: build_image_matrix(f0, f1, times, rife, depth=depth, batch=batch))
 
 
+def psnr(a: np.ndarray, b: np.ndarray) -> float:
+    """PSNR (dB) of two float images in [0, 1]; inf if identical."""
+    mse = float(np.mean((np.asarray(a, np.float64) - b) ** 2))
+    return float("inf") if mse == 0 else 10 * np.log10(1.0 / mse)
+
+
 def main() -> None:
     """Print the timings."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--batches", type=int, nargs="+", default=[1, 8], help="pairs per network call to try for the matrix")
+    ap.add_argument("--batches", type=int, nargs="+", default=[1], help="pairs per network call to try for the matrix")
+    ap.add_argument("--cache", default=None, help="directory of the ONNX export (default: a new temporary one)")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
-    rife = load_rife()
-    print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, device {rife.device}")
-    for size in (256, 384, 512):
-        wall, best, cpu = bench_midpoint(rife, size, args.repeats)
-        print(f"midpoint {size}x{size}: {wall:.3f} s wall (median of {args.repeats}, min {best:.3f}), "
-              f"{cpu:.3f} s CPU")
-    for batch in args.batches:
-        wall, cpu = bench_matrix(rife, 9, 384, 3, batch)
-        print(f"image matrix 9 frames 384x384 depth 3 batch {batch}: {wall:.2f} s wall, {cpu:.2f} s CPU "
-              f"(63 midpoints, {wall / 63:.3f} s each; target <= 12 s)")
+    with tempfile.TemporaryDirectory() as tmp:
+        rifes = {}
+        for runtime in RUNTIMES:
+            wall, cpu = timed(lambda: rifes.setdefault(runtime, load_rife(runtime=runtime, cache_dir=args.cache or tmp)))
+            print(f"load {runtime}: {wall:.2f} s wall, {cpu:.2f} s CPU"
+                  + (" (exports the network unless --cache holds it)" if runtime == "onnxruntime" else ""))
+        print(f"torch {torch.__version__}, {torch.get_num_threads()} threads, device {rifes['torch'].device}")
+        for size in (256, 384, 512):
+            a, b = smooth_frames(1, size, 1), smooth_frames(1, size, 2)
+            mids = {}
+            for runtime, rife in rifes.items():
+                wall, best, cpu = bench_midpoint(rife, size, args.repeats)
+                mids[runtime] = rife.midpoint(a, b)[0]
+                print(f"midpoint {size}x{size} {runtime:12s}: {wall:.3f} s wall (median of {args.repeats}, "
+                      f"min {best:.3f}), {cpu:.3f} s CPU")
+            print(f"  frames apart: {psnr(mids['torch'], mids['onnxruntime']):.1f} dB PSNR")
+        for batch in args.batches:
+            for runtime, rife in rifes.items():
+                wall, cpu = bench_matrix(rife, 9, 384, 3, batch)
+                print(f"image matrix 9 frames 384x384 depth 3 batch {batch} {runtime:12s}: {wall:.2f} s wall, "
+                      f"{cpu:.2f} s CPU (63 midpoints, {wall / 63:.3f} s each; target <= 12 s)")
 
 
 if __name__ == "__main__":

@@ -22,7 +22,9 @@ class Settings:
     mu: float = field(default=200.0, metadata=_doc("Weight of the pose term in the deformation energy (§4.3)."))
     grad_tol: float = field(default=0.01, metadata=_doc("Stop the quasi-Newton solver at this gradient norm (§4.3)."))
     max_iter: int = field(default=5000, metadata=_doc("Iteration cap of the deformation solver (§4.3)."))
-    seed: int = field(default=0, metadata=_doc("Seed of optuna's TPE sampler for odd T-junction counts (§4.4)."))
+    topology_budget: float = field(default=30.0, metadata=_doc(
+        "Wall-clock seconds the cut search may spend on one occlusion region (§4.4); when they run out the best "
+        "cut found so far is kept, with a warning."))
     epsilon: float = field(default=0.02, metadata=_doc("Path may step back in alpha by less than this (§5.2)."))
     alpha_depth: int = field(default=3, metadata=_doc("Recursive RIFE bisection depth: alpha grid of 2**depth + 1 values."))
     supersample: int = field(default=2, metadata=_doc("Renderer supersampling factor per axis (anti-aliasing)."))

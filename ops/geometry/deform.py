@@ -1,20 +1,40 @@
 """Injective skeleton-driven deformation of a template mesh (§4.3).
 
-Minimizes the symmetric Dirichlet energy plus the pose term (ops.energy) by a
-Laplacian-preconditioned L-BFGS: the two-loop recursion uses the factorized
-matrix P = 8 (-L) + 2 mu H as initial inverse Hessian (L = cotangent
-Laplacian of the normalized rest mesh, H = handle indicator; 8 (-L) is the SD
-Hessian scale at the identity, 2 mu that of the pose term), scaled each
-iteration by s^T y / y^T P^-1 y. P is factorized once per mesh (splu).
+Minimizes the symmetric Dirichlet energy plus the pose term (ops.energy) by
+one of two descent methods (Deformer's `method`), both with the same
+injectivity-capped line search:
 
-One solve with P per iteration: applying P^-1 is linear, so the recursion's
-P^-1 q = P^-1 g - sum a_i P^-1 y_i is assembled from the preconditioned
-gradient of each iterate and P^-1 y_i = P^-1 g_(i+1) - P^-1 g_i, kept with
-its pair (two solves per iteration before; the iterates are the same up to
-rounding).
+- "newton" (the cut search's, ops.geometry.topology.Solver): projected Newton
+  steps (ops.geometry.newton: each face's Hessian projected to positive
+  semi-definite, the sparse system refactorized per iterate). Where the
+  injectivity bound would cut a Newton step below NEWTON_CAP the step is
+  L-BFGS's instead, for 1, 2, 4 .. MAX_BACKOFF iterations before Newton is
+  tried again: far from a minimum (a pose far from the start) Newton aims
+  through folds and then creeps along the barrier into a crumpled minimum (the
+  tail's direct solve to its curled pose: 920 steps to an energy of 289),
+  where the Laplacian-preconditioned direction moves the whole sheet smoothly.
+  Near a minimum (each warm cut candidate) it takes 5-15x fewer iterations.
+  Not the default: its steps are 5-7x dearer, and with the gradient-norm stop
+  it can halt on the flat slope by a saddle that L-BFGS passes (arm_cross
+  key0's last frame: 3.8 px from the minimum, energy 4.7548 against 4.7534;
+  the frames of all samples deformed by it cost arm_cross 0.11 dB), while over
+  the samples' frame sequences it saves a third of the time; the lanes' direct
+  solves from rest to the other key pose land in other crumpled minima with it
+  (docs/performance.md).
+- "lbfgs" (the default: the lanes' frames and direct solves): the
+  Laplacian-preconditioned L-BFGS, whose steps "newton" borrows. The two-loop
+  recursion uses the factorized matrix P = 8 (-L) + 2 mu H as initial inverse
+  Hessian (L = cotangent Laplacian of the normalized rest mesh, H = handle
+  indicator; 8 (-L) is the SD Hessian scale at the identity, 2 mu that of the
+  pose term), scaled each iteration by s^T y / y^T P^-1 y. P is factorized
+  once per mesh (splu). One solve with P per iteration: applying P^-1 is
+  linear, so the recursion's P^-1 q = P^-1 g - sum a_i P^-1 y_i is assembled
+  from the preconditioned gradient of each iterate and
+  P^-1 y_i = P^-1 g_(i+1) - P^-1 g_i, kept with its pair. Every step of
+  either method updates the pairs.
 
-Connected components without a handle make P singular (translations are
-free): those vertices get a tiny multiple of the lumped mass matrix on the
+Connected components without a handle make both systems singular (translations
+are free): those vertices get a tiny multiple of the lumped mass matrix on the
 diagonal, and every search direction has its per-component mean removed there
 (the SD gradient sums to zero per component, so this stays a descent
 direction and never drifts the free piece).
@@ -35,6 +55,7 @@ from scipy.sparse.linalg import splu
 
 from ops.geometry.energy import SymmetricDirichlet, normalization
 from ops.geometry.mesh import signed_areas, vertex_components
+from ops.geometry.newton import NewtonSystem
 from ops.types import Template
 
 
@@ -93,26 +114,37 @@ def max_injective_step(X: np.ndarray, D: np.ndarray, faces: np.ndarray) -> float
     return float(min(1.0, 0.8 * first_fold_time(X, D, faces)))
 
 
-class Deformer:
-    """Factorizes the preconditioner of one template once; `solve` deforms it to handle targets."""
+SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut search's), preconditioned L-BFGS
+NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
+MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: 0.3 and 16 keep
+#                   the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
 
-    def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0):
-        """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids."""
+
+class Deformer:
+    """Prepares one template's energy once; `solve` deforms it to handle targets (projected Newton or L-BFGS)."""
+
+    def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
+                 method: str = "lbfgs"):
+        """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids;
+        method: one of SOLVERS."""
+        if method not in SOLVERS:
+            raise ValueError(f"method must be one of {SOLVERS}, got {method!r}")
         self.rest = np.asarray(rest, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.handles = np.asarray(handles, dtype=np.int64)
+        self.method, self.mu = method, float(mu)
         self.norm = normalization(self.rest, self.faces)
         self.rest_n = self.norm.to_norm(self.rest)
         self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu)
-        self._setup_preconditioner(mu)
+        self._setup_free_groups()
         self._edges = _edge_operator(self.faces, len(self.rest))
+        self._newton: NewtonSystem | None = None
+        self._solve_P = None  # the L-BFGS preconditioner's factorization, made when first needed
 
-    def _setup_preconditioner(self, mu: float) -> None:
-        """Factorize P; label the vertices of components without handles, whose mean is projected out."""
+    def _setup_free_groups(self) -> None:
+        """Label the vertices of components without handles, whose mean is projected out of every step, and the
+        diagonal both systems add: 2 mu per handle, a tiny multiple of the lumped mass on handle-free vertices."""
         n = len(self.rest_n)
-        L = -igl.cotmatrix(self.rest_n, self.faces)
-        hdiag = np.bincount(self.handles, minlength=n).astype(np.float64) * 2.0 * mu
-        P = 8.0 * L + sp.diags(hdiag)
         comp = vertex_components(n, self.faces)
         has_handle = np.zeros(comp.max() + 1, bool)
         has_handle[comp[self.handles]] = True
@@ -123,12 +155,19 @@ class Deformer:
         self._free = np.nonzero(free)[0]
         self._group = group_of[comp[self._free]]
         self._group_size = np.bincount(self._group).astype(np.float64)
+        self._diagonal = np.bincount(self.handles, minlength=n).astype(np.float64) * 2.0 * self.mu
         if free.any():
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))
             mass = np.where(mass > 0, mass, 1.0 / max(n, 1))
-            P = P + sp.diags(1e-6 * mass * free)
-        self._solve_P = splu(sp.csc_matrix(P)).solve
+            self._diagonal += 1e-6 * mass * free
+
+    def _preconditioner(self):
+        """Factorize P = 8 (-L) + the diagonal once (L-BFGS's initial inverse Hessian): its solve function."""
+        if self._solve_P is None:
+            L = -igl.cotmatrix(self.rest_n, self.faces)
+            self._solve_P = splu(sp.csc_matrix(8.0 * L + sp.diags(self._diagonal))).solve
+        return self._solve_P
 
     @property
     def _free_groups(self) -> list[np.ndarray]:
@@ -137,7 +176,10 @@ class Deformer:
 
     def precondition(self, G: np.ndarray) -> np.ndarray:
         """P^-1 G for G (n, 2), with handle-free components' translation removed (a linear map of G)."""
-        D = self._solve_P(G)
+        return self._remove_free_translation(self._preconditioner()(G))
+
+    def _remove_free_translation(self, D: np.ndarray) -> np.ndarray:
+        """D (n, 2) with each handle-free component's mean removed, in place."""
         if len(self._free):
             mean = np.stack([np.bincount(self._group, D[self._free, c]) for c in (0, 1)], axis=1)
             D[self._free] -= (mean / self._group_size[:, None])[self._group]
@@ -154,46 +196,98 @@ class Deformer:
         grad_tol: float = 0.01,
         max_iter: int = 5000,
         memory: int = 10,
+        method: str | None = None,
     ) -> DeformResult:
-        """Minimize energy for handle targets (h, 2) pixels from fold-free x0 (n, 2) pixels (rest if None)."""
+        """Minimize energy for handle targets (h, 2) pixels from fold-free x0 (n, 2) pixels (rest if None).
+
+        Stops at gradient norm grad_tol (normalized units) or after max_iter iterations; memory: the L-BFGS
+        pairs kept (both methods keep them: "newton" takes L-BFGS steps at the injectivity barrier); method: one
+        of SOLVERS for this solve (default: the Deformer's)."""
         T = self.norm.to_norm(targets)
         X = self.rest_n.copy() if x0 is None else self.norm.to_norm(x0)
         E, G = self.energy_fn.value_grad(X, T)
         if not np.isfinite(E):
             raise ValueError("x0 folds a triangle: the deformation must start from a fold-free state")
-        hist = deque(maxlen=memory)  # (s, y, 1 / s.y, P^-1 y) of the newest pairs
-        energies = [E]
-        it, gnorm = 0, float(np.linalg.norm(G))
-        PG = self.precondition(G) if gnorm >= grad_tol else None
-        while gnorm >= grad_tol and it < max_iter:
-            D = -self._direction(G, PG, hist)
-            if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient
-                hist.clear()
-                D = -PG
-            step = self._line_search(X, D, E, G, T)
-            if step is None and hist:
-                hist.clear()
-                D = -PG
-                step = self._line_search(X, D, E, G, T)
-            if step is None:
-                break
-            t, E1, G1 = step
-            PG1 = self.precondition(G1)
-            s, y = t * D, G1 - G
-            if np.vdot(s, y) > 1e-16:
-                hist.append((s, y, 1.0 / np.vdot(s, y), PG1 - PG))
-            X, E, G, PG = X + s, E1, G1, PG1
-            energies.append(E)
-            it += 1
-            gnorm = float(np.linalg.norm(G))
+        method = method or self.method
+        if method not in SOLVERS:
+            raise ValueError(f"method must be one of {SOLVERS}, got {method!r}")
+        X, E, G, energies = self._iterations(X, E, G, T, grad_tol, max_iter, memory, method)
+        gnorm = float(np.linalg.norm(G))
         return DeformResult(
             x=self.norm.to_pixels(X),
             energy=float(E),
-            iterations=it,
+            iterations=len(energies) - 1,
             grad_norm=gnorm,
             converged=gnorm < grad_tol,
             energy_history=np.asarray(energies),
         )
+
+    def _iterations(self, X, E, G, T, grad_tol: float, max_iter: int, memory: int, method: str):
+        """Descend from (X, E, G) at normalized targets T until |G| < grad_tol: (X, E, G, energies per iterate).
+
+        Every step updates the L-BFGS pairs. "lbfgs" steps along the L-BFGS direction; "newton" along the
+        projected Newton direction (ops.geometry.newton), except where the injectivity bound would cut that
+        step below NEWTON_CAP: far from a minimum (a pose far from the start) Newton aims past folds and then
+        creeps along the barrier in tiny steps (the tail's direct solve to its curled pose: 920 steps to an
+        energy of 289), where the Laplacian-preconditioned direction moves the whole sheet smoothly. A step the
+        line search rejects is retried along the preconditioned gradient, with the pairs cleared.
+        """
+        hist = deque(maxlen=memory)  # [s, y, 1 / s.y, P^-1 y] of the newest pairs (P^-1 y None until needed)
+        energies = [E]
+        gnorm = float(np.linalg.norm(G))
+        # P^-1 G of the current iterate: every iteration for "lbfgs" (its pairs' P^-1 y come from consecutive
+        # ones), only when an L-BFGS step is taken for "newton" (most of its solves never factorize P at all)
+        eager = method == "lbfgs"
+        PG = self.precondition(G) if eager and gnorm >= grad_tol else None
+        lbfgs_left, backoff = 0, 0  # L-BFGS steps to take before Newton is tried again, and how many next time
+        while gnorm >= grad_tol and len(energies) <= max_iter:
+            D, cap = None, 0.0
+            if not eager and lbfgs_left == 0:
+                D, cap = self._newton_direction(X, G)
+                if cap < NEWTON_CAP:  # Newton meets the barrier: L-BFGS for a while, longer each time in a row
+                    backoff = min(2 * backoff or 1, MAX_BACKOFF)
+                    lbfgs_left = backoff
+                else:
+                    backoff = 0
+            elif lbfgs_left:
+                lbfgs_left -= 1
+            if D is None or cap < NEWTON_CAP:
+                PG = self.precondition(G) if PG is None else PG
+                D = -self._direction(G, PG, hist)
+                if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient
+                    hist.clear()
+                    D = -PG
+                cap = self._injective_step(X, D)
+            step = self._line_search(X, D, E, G, T, cap)
+            if step is None and (hist or not eager):
+                hist.clear()
+                PG = self.precondition(G) if PG is None else PG
+                D = -PG
+                step = self._line_search(X, D, E, G, T, self._injective_step(X, D))
+            if step is None:
+                break
+            t, E1, G1 = step
+            PG1 = self.precondition(G1) if eager else None
+            s, y = t * D, G1 - G
+            if np.vdot(s, y) > 1e-16:
+                hist.append([s, y, 1.0 / np.vdot(s, y), PG1 - PG if eager else None])
+            X, E, G, PG = X + s, E1, G1, PG1
+            energies.append(E)
+            gnorm = float(np.linalg.norm(G))
+        return X, E, G, energies
+
+    def _newton_direction(self, X: np.ndarray, G: np.ndarray) -> tuple[np.ndarray | None, float]:
+        """(projected Newton direction (n, 2), its injectivity-capped step), or (None, 0) where the projected
+        Hessian is singular or the direction does not descend."""
+        if self._newton is None:
+            self._newton = NewtonSystem(self.energy_fn, self._diagonal)
+        try:
+            D = self._remove_free_translation(self._newton.step(X, G))
+        except ValueError:
+            return None, 0.0
+        if np.vdot(D, G) >= 0:
+            return None, 0.0
+        return D, self._injective_step(X, D)
 
     def solve_along(
         self,
@@ -224,6 +318,9 @@ class Deformer:
 
     def _direction(self, G: np.ndarray, PG: np.ndarray, hist: deque) -> np.ndarray:
         """L-BFGS two-loop recursion with H0 = gamma P^-1: approximates H^-1 G, (n, 2); PG = P^-1 G."""
+        for pair in hist:  # pairs of Newton steps: their P^-1 y, once
+            if pair[3] is None:
+                pair[3] = self.precondition(pair[1])
         q, r = G.copy(), PG.copy()  # r follows P^-1 q through the first loop (P^-1 is linear)
         alphas = []
         for s, y, rho, Py in reversed(hist):
@@ -240,11 +337,13 @@ class Deformer:
             r += (a - b) * s
         return r
 
-    def _line_search(self, X, D, E, G, T, c1: float = 1e-4, max_halvings: int = 40):
-        """Backtracking Armijo search from the injectivity-capped step: (t, E, G) or None."""
+    def _injective_step(self, X: np.ndarray, D: np.ndarray) -> float:
+        """min(1, 0.8 * first-fold time) along X + t D, both (n, 2) normalized (max_injective_step, faster)."""
         m = len(self.faces)
-        t_fold = _fold_time((self._edges @ X).reshape(m, 2, 2), (self._edges @ D).reshape(m, 2, 2))
-        t = min(1.0, 0.8 * t_fold)
+        return float(min(1.0, 0.8 * _fold_time((self._edges @ X).reshape(m, 2, 2), (self._edges @ D).reshape(m, 2, 2))))
+
+    def _line_search(self, X, D, E, G, T, t: float, c1: float = 1e-4, max_halvings: int = 40):
+        """Backtracking Armijo search from the injectivity-capped step t: (t, E, G) or None."""
         slope = float(np.vdot(G, D))
         for _ in range(max_halvings):
             Xt = X + t * D

@@ -56,7 +56,8 @@ class SymmetricDirichlet:
         if (area <= 0).any():
             raise ValueError(f"rest mesh has {int((area <= 0).sum())} non-positive-area face(s)")
         self.weight = area / area.sum()
-        self.K = _jacobian_operator(rest_n, self.faces)
+        self.coef = jacobian_coefficients(rest_n, self.faces)
+        self.K = _jacobian_operator(self.coef, self.faces, self.n)
         self.KT = self.K.T.tocsr()  # transposing per call costs more than the product itself
 
     def jacobians_T(self, X: np.ndarray) -> np.ndarray:
@@ -92,15 +93,53 @@ class SymmetricDirichlet:
         """Total energy at X (n, 2) with targets (h, 2), normalized."""
         return self.value_grad(X, targets, need_grad=False)[0]
 
+    def face_hessians(self, X: np.ndarray, project: bool = True) -> np.ndarray:
+        """(m, 4, 4) Hessian of each face's weighted SD term in the entries (p, q, r, s) of J_f^T at X (n, 2),
+        normalized; with `project`, its positive semi-definite part.
 
-def _jacobian_operator(rest_n: np.ndarray, faces: np.ndarray) -> sp.csr_matrix:
-    """(2m, n) sparse K with (K @ X).reshape(m, 2, 2)[f] = J_f^T, J_f = D_f(X) R_f^-1, D = [x1-x0, x2-x0]."""
-    m = len(faces)
+        The projection is analytic (Smith et al. 2019, "Analytic eigensystems for isotropic distortion
+        energies", 2D): of the four eigenvalues of the symmetric Dirichlet's Hessian, the two scaling ones
+        (2 + 6 / sigma_i^4) and the flip one (2 + 2 (s1^2 + s1 s2 + s2^2) / (s1 s2)^3) are positive; only the
+        twist one, (psi_1 + psi_2) / (s1 + s2) = 2 - 2 (|M|^2 - det) / det^3, can be negative (a face squashed
+        below its rest size), with the unit eigenvector t = (-h, -e, e, -h) / (sqrt 2 sqrt(e^2 + h^2)), e and h
+        the conformal part ((p + s) / 2, (r - q) / 2) of J^T. Projecting adds -lambda t t^T where lambda < 0.
+        """
+        M = (self.K @ X).reshape(-1, 4)
+        p, q, r_, s = M.T
+        det = p * s - q * r_
+        fro = (M * M).sum(axis=1)
+        c = np.stack([s, -r_, -q, p], axis=1)  # d det / dM
+        # f = |M|^2 (1 + det^-2):
+        # d2f = 2 (1 + det^-2) I - 4 det^-3 (M c^T + c M^T) + 6 |M|^2 det^-4 c c^T - 2 |M|^2 det^-3 d2det
+        inv = 1.0 / det
+        H = (2.0 * (1.0 + inv * inv))[:, None, None] * np.eye(4)
+        Mc = M[:, :, None] * c[:, None, :]
+        H -= (4.0 * inv**3)[:, None, None] * (Mc + Mc.transpose(0, 2, 1))
+        H += (6.0 * fro * inv**4)[:, None, None] * (c[:, :, None] * c[:, None, :])
+        H -= (2.0 * fro * inv**3)[:, None, None] * _D2_DET
+        if project:
+            twist = 2.0 - 2.0 * (fro - det) * inv**3
+            e, h = 0.5 * (p + s), 0.5 * (r_ - q)
+            t = np.stack([-h, -e, e, -h], axis=1) / np.sqrt(2.0 * (e * e + h * h))[:, None]
+            H += _TWIST_FACTOR * np.maximum(-twist, 0.0)[:, None, None] * (t[:, :, None] * t[:, None, :])
+        return H * self.weight[:, None, None]
+
+
+_TWIST_FACTOR = 1.0
+_D2_DET = np.array([[0, 0, 0, 1], [0, 0, -1, 0], [0, -1, 0, 0], [1, 0, 0, 0]], float)  # Hessian of p s - q r
+
+
+def jacobian_coefficients(rest_n: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(m, 2, 3) A with row i of J_f^T = sum_j A[f, i, j] X[faces[f, j]]: the per-face Jacobian's linear map of
+    the corner positions (rows of J^T = R^-T D^T; R, D = rest and deformed edge matrices [x1-x0, x2-x0])."""
     R = np.stack([rest_n[faces[:, 1]] - rest_n[faces[:, 0]], rest_n[faces[:, 2]] - rest_n[faces[:, 0]]], axis=2)
-    Rinv = np.linalg.inv(R)  # (m, 2, 2); J^T = R^-T D^T, rows of D^T are the edge vectors
-    A = np.transpose(Rinv, (0, 2, 1))  # R^-T
-    # Row 2f+i of K: sum_j A[f, i, j] * (x_{j+1} - x_0)
+    A = np.transpose(np.linalg.inv(R), (0, 2, 1))  # R^-T
+    return np.stack([-A.sum(axis=2), A[:, :, 0], A[:, :, 1]], axis=2)
+
+
+def _jacobian_operator(coef: np.ndarray, faces: np.ndarray, n: int) -> sp.csr_matrix:
+    """(2m, n) sparse K with (K @ X).reshape(m, 2, 2)[f] = J_f^T, from jacobian_coefficients (m, 2, 3)."""
+    m = len(faces)
     rows = np.repeat(np.arange(2 * m), 3)
     cols = np.stack([faces[:, [0, 1, 2]]] * 2, axis=1).reshape(-1)
-    vals = np.stack([-A.sum(axis=2), A[:, :, 0], A[:, :, 1]], axis=2).reshape(-1)
-    return sp.csr_matrix((vals, (rows, cols)), shape=(2 * m, len(rest_n)))
+    return sp.csr_matrix((coef.reshape(-1), (rows, cols)), shape=(2 * m, n))

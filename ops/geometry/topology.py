@@ -16,25 +16,46 @@ follows the motion between the two key poses in PATH_STEPS steps
 (Deformer.solve_along): it reaches the minimum the lane's frame-by-frame
 deformation reaches, where a direct solve often stopped in a crumpled one,
 so each topology is scored by the deformation the lane will actually show.
+
+The search (optimize_topology) takes the regions one at a time, the others
+held at their current cuts, and its cost grows linearly with a region's
+T-junctions: an even count has its 2 assignments; an odd count, whose cusp can
+sit at any of the n - k other boundary vertices, is searched by stretch: the
+cusp lies in one of the k stretches of boundary between consecutive
+T-junctions, and either label can start at the first T-junction, so the 2k
+(stretch, label) families are each probed once with the cusp in the middle
+of its stretch, then the best family's cusp walks along its stretch in
+halving steps (at most 2 log2 of its length more). Only a region's first
+topology is deformed from rest along the motion; every other one starts from
+the solution of its neighbour (the other cut of an even region, the family's
+best cusp so far; ops.geometry.warmstart), solved at the other pose: a
+fraction of the iterations. Topologies are deformed by projected Newton
+(Solver.method), which near a minimum takes 5-15x fewer iterations than the
+lanes' L-BFGS and reaches the same energies there (ops.geometry.deform). (Before: optuna's TPE over all 2 (n - k) options,
+up to 30 trials each deformed from rest, so turning an even region odd with
+one more click multiplied its cost by up to 15.) A region whose boundary,
+T-junctions, front bones, key poses and solver settings are those of a region
+of a previous template (region_key) keeps that template's cut unsearched; a
+region that runs out of its wall-clock budget keeps the best cut found.
 """
 from __future__ import annotations
 
-import logging
-from dataclasses import dataclass
+import hashlib
+import time
+from dataclasses import dataclass, field
 
 import numpy as np
-import optuna
 
-from ops.geometry.deform import Deformer
+from ops.geometry.deform import Deformer, count_flipped
 from ops.geometry.mesh import split_fans
 from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import TemplateBase, build_template
+from ops.geometry.warmstart import transfer_positions
 from ops.shotio.interpolate import interpolate_pose
 from ops.types import RefinedMasks, Skeleton, Template, handle_targets
 
-MAX_ODD_TRIALS = 30
 PATH_STEPS = 4  # over the samples' topologies 2-4 steps reach the same energies; 4 takes the fewest iterations
-_FAILED = 1e12  # stands in for +inf energy inside optuna
+MAX_CUSP_MOVES = 8  # topologies an odd region's best cusp family may try along its stretch after the 2k probes
 
 
 @dataclass(frozen=True)
@@ -66,6 +87,23 @@ def odd_assignment(n: int, junctions: np.ndarray, index: int) -> Assignment:
     others = np.setdiff1d(np.arange(n), jn)
     cusp = int(others[index // 2])
     return alternating(np.append(jn, cusp), index % 2, cusp)
+
+
+def cusp_assignment(junctions: np.ndarray, cusp: int, first_label: int) -> Assignment:
+    """Odd k: the assignment flipping at the T-junction indices (k,) and at `cusp`, the segment that starts at
+    the first (lowest-index) T-junction labelled first_label."""
+    jn = np.unique(np.asarray(junctions, dtype=np.int64))
+    switches = np.sort(np.append(jn, int(cusp)))
+    at = int(np.searchsorted(switches, jn[0]))  # 1 when the cusp comes before the first junction
+    return alternating(switches, (first_label - at) % 2, int(cusp))
+
+
+def cusp_stretches(n: int, junctions: np.ndarray) -> list[np.ndarray]:
+    """Per stretch of a closed n-vertex boundary between consecutive T-junctions (k,) (the last wraps round to
+    the first), its (a,) int64 vertex indices strictly between them, in order; stretches without one left out."""
+    jn = np.unique(np.asarray(junctions, dtype=np.int64))
+    ends = np.append(jn[1:], jn[0] + n)
+    return [idx % n for idx in (np.arange(a + 1, b) for a, b in zip(jn, ends)) if len(idx)]
 
 
 def enumerate_assignments(n: int, junctions: np.ndarray) -> list[Assignment]:
@@ -147,11 +185,13 @@ def _nonmanifold_warning(F: np.ndarray) -> list[str]:
 
 @dataclass(frozen=True)
 class Solver:
-    """How a topology is deformed to be scored (ops.geometry.deform)."""
+    """How a topology is deformed to be scored (ops.geometry.deform), and how long a region may be searched."""
 
     mu: float = 200.0
     grad_tol: float = 0.01
     max_iter: int = 5000
+    region_budget_s: float | None = None  # wall-clock seconds per region's search; None: no limit
+    method: str = "newton"  # Deformer's method (ops.geometry.deform.SOLVERS)
 
 
 def pose_path(pose_self: np.ndarray, pose_other: np.ndarray, parents: np.ndarray, steps: int = PATH_STEPS) -> list:
@@ -167,55 +207,199 @@ def handle_path(base: TemplateBase, pose_self: np.ndarray, pose_other: np.ndarra
 
 
 def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.ndarray],
-             solver: Solver = Solver()) -> tuple[float, Incised, np.ndarray | None]:
-    """Energy (inf on failure) of deforming the incised template from rest along handle targets path (each
-    (h, 2) pixels), the incised template, and its vertices (n, 2) pixels at the last targets (None on failure)."""
+             solver: Solver = Solver(), x0: np.ndarray | None = None) -> tuple[float, Incised, np.ndarray | None]:
+    """Energy (inf on failure) of deforming the incised template along handle targets path (each (h, 2)
+    pixels), the incised template, and its vertices (n, 2) pixels at the last targets (None on failure).
+
+    From rest the deformation follows the whole path; from x0 ((n, 2) pixels, fold-free: a neighbouring
+    topology's solution carried over, ops.geometry.warmstart) it is solved at the last targets only."""
     inc = incise(base, assignments)
     try:
-        res = Deformer(inc.rest, inc.faces, inc.handles, solver.mu).solve_along(
-            path, grad_tol=solver.grad_tol, max_iter=solver.max_iter)
+        d = Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method)
+        if x0 is None:
+            res = d.solve_along(path, grad_tol=solver.grad_tol, max_iter=solver.max_iter)
+        else:
+            res = d.solve(path[-1], x0=x0, grad_tol=solver.grad_tol, max_iter=solver.max_iter)
         energy, x = (res.energy, res.x) if np.isfinite(res.energy) else (np.inf, None)
     except (ValueError, RuntimeError, np.linalg.LinAlgError):
         energy, x = np.inf, None
     return float(energy), inc, x
 
 
+def _key(assignments: list[Assignment]) -> tuple:
+    """Hashable identity of a list of per-region assignments."""
+    return tuple((tuple(a.switches.tolist()), tuple(a.labels.tolist())) for a in assignments)
+
+
+@dataclass
+class _Scored:
+    """One evaluated topology (its energy summed over the target poses it is deformed to)."""
+
+    energy: float
+    inc: Incised
+    assignments: list[Assignment]
+    x: list[np.ndarray | None]  # per target pose, (n, 2) pixels there (None on failure)
+    warm: bool  # started from a neighbour's solution (else from rest, along the motion)
+
+
+@dataclass
 class _Search:
-    """Memoized topology evaluation: every distinct combination of region choices is solved once."""
+    """Memoized topology evaluation: every distinct combination of region cuts is solved once per target pose,
+    warm-started from the first of the given neighbours whose solution carries over without a fold."""
 
-    def __init__(self, base: TemplateBase, paths: list[list[np.ndarray]], solver: Solver):
-        """base: the front-sheet template; paths: per target pose, the (h, 2) handle targets towards it, pixels."""
-        self.base, self.paths, self.solver = base, paths, solver
-        self.cache: dict[tuple, tuple[float, Incised, list[Assignment]]] = {}
+    base: TemplateBase
+    paths: list[list[np.ndarray]]  # per target pose, the (h, 2) handle targets towards it, pixels
+    solver: Solver
+    cache: dict[tuple, _Scored] = field(default_factory=dict)
 
-    def score(self, choice: tuple, options: list) -> float:
-        """Energy of the per-region option indices `choice` (options[r](i) -> Assignment)."""
-        if choice not in self.cache:
-            assign = [options[r](i) for r, i in enumerate(choice)]
-            scored = [evaluate(self.base, assign, path, self.solver) for path in self.paths]
-            self.cache[choice] = (float(sum(e for e, _, _ in scored)), scored[0][1], assign)
-        return self.cache[choice][0]
+    def score(self, assignments: list[Assignment], neighbours: list[tuple] = ()) -> _Scored:
+        """The evaluated topology of `assignments` (one per region); neighbours: cache keys, in preference order."""
+        key = _key(assignments)
+        if key not in self.cache:
+            energy, xs, warm, inc = 0.0, [], True, None
+            for i, path in enumerate(self.paths):
+                x0 = self._warm_start(assignments, neighbours, i)
+                e, inc, x = evaluate(self.base, assignments, path, self.solver, x0)
+                if x0 is not None and not np.isfinite(e):  # the warm start failed: from rest after all
+                    e, inc, x = evaluate(self.base, assignments, path, self.solver)
+                    x0 = None
+                energy, warm = energy + e, warm and x0 is not None
+                xs.append(x)
+            self.cache[key] = _Scored(float(energy), inc, list(assignments), xs, warm)
+        return self.cache[key]
+
+    def _warm_start(self, assignments: list[Assignment], neighbours, i: int) -> np.ndarray | None:
+        """Fold-free (n, 2) pixels at target i carried over from the first neighbour that allows it, else None.
+
+        A region whose cut is the neighbour's with every label flipped (the other cut of an even count, the
+        other family of an odd one at the same cusp) sews its pocket where the neighbour sewed its front: its
+        front faces take the neighbour's pocket faces' corners and its pocket faces the front ones', so every
+        face keeps an unfolded shape (carried corner by corner, about half of them fold)."""
+        inc = None
+        for k in neighbours:
+            src = self.cache.get(k)
+            if src is None or src.x[i] is None:
+                continue
+            inc = inc or incise(self.base, assignments)
+            source_faces = src.inc.faces.copy()
+            for r, (mine, theirs) in enumerate(zip(assignments, src.assignments)):
+                if np.array_equal(mine.switches, theirs.switches) and np.array_equal(mine.labels, 1 - theirs.labels):
+                    front = np.flatnonzero(self.base.face_region == r)
+                    pocket = np.flatnonzero(src.inc.face_layer == r + 1)
+                    source_faces[front], source_faces[pocket] = src.inc.faces[pocket], src.inc.faces[front]
+            x0 = transfer_positions(src.x[i], source_faces, inc.faces, inc.rest)
+            if count_flipped(x0, inc.faces) == 0:
+                return x0
+        return None
 
 
-def _region_optimum(search: _Search, choice: list[int], r: int, options: list, n_opt: int, k: int, seed: int) -> int:
-    """Best option index for region r with the other regions fixed: exhaustive (even k) or TPE (odd k)."""
-    def energy(i: int) -> float:
-        """Energy with region r set to option i."""
-        return search.score(tuple(choice[:r] + [i] + choice[r + 1:]), options)
+@dataclass
+class _Region:
+    """One region's search: its options and the deadline of its budget."""
 
-    if k % 2 == 0:
-        scores = [energy(i) for i in range(n_opt)]
-        return int(np.argmin(scores))
-    optuna.logging.set_verbosity(logging.WARNING)
-    study = optuna.create_study(direction="minimize", sampler=optuna.samplers.TPESampler(seed=seed + r))
+    search: _Search
+    choice: list[Assignment]  # the current cut of every region
+    r: int
+    deadline: float  # time.monotonic() after which no further topology is evaluated
+    evaluated: int = 0
+    out_of_budget: bool = False
+    tried: list[tuple] = field(default_factory=list)  # keys of the topologies scored for this region, in order
 
-    def objective(trial: optuna.Trial) -> float:
-        """Optuna objective: energy of the suggested (cusp, starting side) option, finite."""
-        e = energy(trial.suggest_categorical("option", list(range(n_opt))))
-        return e if np.isfinite(e) else _FAILED
+    def energy(self, a: Assignment, neighbours: list[Assignment] = ()) -> float:
+        """Energy with region r cut by `a` (warm-started from the topologies with region r cut by `neighbours`);
+        inf without evaluating once the budget is spent (the first topology is always evaluated)."""
+        trial = self.choice[:self.r] + [a] + self.choice[self.r + 1:]
+        key = _key(trial)
+        if key not in self.search.cache:
+            if self.evaluated and time.monotonic() > self.deadline:
+                self.out_of_budget = True
+                return np.inf
+            self.evaluated += 1
+        near = [_key(self.choice[:self.r] + [b] + self.choice[self.r + 1:]) for b in neighbours]
+        near += self.tried[::-1][:3]  # else the region's latest topologies
+        scored = self.search.score(trial, near)
+        if key not in self.tried:
+            self.tried.append(key)
+        return scored.energy
 
-    study.optimize(objective, n_trials=min(n_opt, MAX_ODD_TRIALS))
-    return int(study.best_params["option"])
+
+def _search_even(region: _Region, junctions: np.ndarray) -> Assignment:
+    """Better of the two assignments of an even count; the second warm-started from the first."""
+    a, b = alternating(junctions, 0), alternating(junctions, 1)
+    ea = region.energy(a)
+    eb = region.energy(b, [a])
+    return b if eb < ea else a
+
+
+def _search_odd(region: _Region, n: int, junctions: np.ndarray) -> Assignment:
+    """Best cusp assignment found: each (stretch, first label) family probed with the cusp mid-stretch, then the
+    best family's cusp moved along its stretch in halving steps while that lowers the energy."""
+    stretches = cusp_stretches(n, junctions)
+    refinements = 0
+    scored: dict[tuple, float] = {}  # (first label, stretch, position in it) -> energy
+    last: dict[int, Assignment] = {}  # per first label, the previous probe: the next one's warm start
+
+    def probe(label: int, s: int, i: int, near: list[Assignment]) -> float:
+        a = cusp_assignment(junctions, int(stretches[s][i]), label)
+        scored[(label, s, i)] = region.energy(a, near)
+        return scored[(label, s, i)]
+
+    for s, idx in enumerate(stretches):  # label 0 from the previous stretch's probe, label 1 from label 0's
+        for label in (0, 1):
+            near = [cusp_assignment(junctions, int(idx[len(idx) // 2]), 0)] if label else []
+            near += [last[label]] if label in last else []
+            probe(label, s, len(idx) // 2, near)
+            last[label] = cusp_assignment(junctions, int(idx[len(idx) // 2]), label)
+    (label, s, i), best = min(scored.items(), key=lambda kv: kv[1])
+    step = max(len(stretches[s]) // 4, 1)
+    while step >= 1 and refinements < MAX_CUSP_MOVES:
+        here = cusp_assignment(junctions, int(stretches[s][i]), label)
+        moves = [j for j in (i - step, i + step) if 0 <= j < len(stretches[s]) and (label, s, j) not in scored]
+        for j in moves[:MAX_CUSP_MOVES - refinements]:
+            probe(label, s, j, [here])
+            refinements += 1
+        j = min((j for j in (i - step, i + step) if (label, s, j) in scored), key=lambda j: scored[(label, s, j)],
+                default=i)
+        if scored.get((label, s, j), np.inf) < best:
+            i, best = j, scored[(label, s, j)]
+        else:
+            step //= 2
+    return cusp_assignment(junctions, int(stretches[s][i]), label)
+
+
+def region_key(refined: RefinedMasks, r: int, pose_self: np.ndarray, targets: list[np.ndarray], mode: str,
+               solver: Solver) -> str:
+    """Digest (24 hex) of what region r's cut search reads: its boundary polyline (pixels, to 1e-6), its
+    T-junction indices and front bones, the key's pose and every target pose, the template mode and the
+    solver's settings."""
+    h = hashlib.sha256()
+    for a in (np.round(np.asarray(refined.boundaries[r], np.float64), 6),
+              np.unique(np.asarray(refined.junctions[r], np.int64)), np.asarray(refined.front_bones[r], np.int64),
+              np.asarray(pose_self, np.float64), *(np.asarray(t, np.float64) for t in targets)):
+        h.update(str(a.shape).encode())
+        h.update(np.ascontiguousarray(a).tobytes())
+    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS)).encode())
+    return h.hexdigest()[:24]
+
+
+def _first_option(n: int, junctions: np.ndarray) -> Assignment:
+    """The cut a region starts from before its own search: label 0 from the first T-junction (cusp mid-stretch)."""
+    if len(junctions) % 2 == 0:
+        return alternating(junctions, 0)
+    idx = cusp_stretches(n, junctions)[0]
+    return cusp_assignment(junctions, int(idx[len(idx) // 2]), 0)
+
+
+def _previous_cut(previous: Template | None, key: str, n: int) -> Assignment | None:
+    """Region `key`'s cut in the previous template (n boundary vertices), or None if it has no such region."""
+    if previous is None or key not in previous.region_keys:
+        return None
+    i = previous.region_keys.index(key)
+    switches = np.asarray(previous.cut_switches[i], np.int64)
+    labels = np.asarray(previous.cut_assignment[i], np.int8)
+    if len(labels) != max(len(switches), 1) or (len(switches) and (switches.min() < 0 or switches.max() >= n)):
+        return None  # not a record this search wrote
+    return Assignment(switches=switches, labels=labels)
 
 
 def optimize_topology(
@@ -224,39 +408,50 @@ def optimize_topology(
     pose_other: np.ndarray | list[np.ndarray],
     skeleton: Skeleton,
     mode: str = "optimized",
-    seed: int = 0,
     max_area: float | None = None,
     solver: Solver = Solver(),
+    previous: Template | None = None,
 ) -> Template:
     """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3),
-    or summed over a list of target poses (the neighbouring keys' poses: the key deforms well on both sides)."""
+    or summed over a list of target poses (the neighbouring keys' poses: the key deforms well on both sides).
+
+    previous: the template an earlier run built for this keyframe; its regions' cuts are kept, unsearched,
+    for the regions whose region_key it records (Template.reused_regions)."""
     base = build_template(refined, pose_self, skeleton, mode, max_area)
-    targets = [pose_other] if isinstance(pose_other, np.ndarray) and pose_other.ndim == 2 else list(pose_other)
+    targets = [pose_other] if np.ndim(pose_other) == 2 else list(pose_other)
     search = _Search(base, [handle_path(base, pose_self, t, skeleton.parents) for t in targets], solver)
-    options, sizes, ks = [], [], []
+    keys = [region_key(refined, r, pose_self, targets, mode, solver) for r in range(base.n_regions)]
+    choice, reused = [], []
     for r in range(base.n_regions):
         n, jn = len(base.boundaries[r]), base.junctions[r]
-        ks.append(len(jn))
-        sizes.append(count_assignments(n, len(jn)))
-        options.append(_option_fn(n, jn))
-    choice = [0] * base.n_regions
+        kept = _previous_cut(previous, keys[r], n) if np.array_equal(jn, np.unique(refined.junctions[r])) else None
+        if kept is not None:
+            reused.append(r)
+        choice.append(kept if kept is not None else _first_option(n, jn))
+    over = []
     for r in range(base.n_regions):
-        choice[r] = _region_optimum(search, choice, r, options, sizes[r], ks[r], seed)
-    energy = search.score(tuple(choice), options)
-    _, inc, assign = search.cache[tuple(choice)]
-    warnings = base.warnings + inc.warnings
-    if not np.isfinite(energy):
+        if r in reused:
+            continue
+        budget = solver.region_budget_s
+        region = _Region(search, choice, r, time.monotonic() + (budget if budget is not None else np.inf))
+        n, jn = len(base.boundaries[r]), base.junctions[r]
+        choice[r] = _search_even(region, jn) if len(jn) % 2 == 0 else _search_odd(region, n, jn)
+        if region.out_of_budget:
+            over.append(r)
+    winner = search.score(choice, list(search.cache)[-1:])
+    warnings = base.warnings + winner.inc.warnings
+    if reused:
+        warnings.append(f"kept the cuts of {len(reused)} unchanged occlusion region(s) {reused} from the previous "
+                        "template, without searching")
+    if over:
+        warnings.append(f"the cut search of occlusion region(s) {over} ran out of its {solver.region_budget_s:g} s "
+                        "budget: kept the best cut found by then (raise Settings.topology_budget for a full search)")
+    if not np.isfinite(winner.energy):
         warnings.append("no topology deformed to the other keyframe's pose without failure")
     return Template(
-        rest=inc.rest, faces=inc.faces, face_layer=inc.face_layer, handles=inc.handles,
+        rest=winner.inc.rest, faces=winner.inc.faces, face_layer=winner.inc.face_layer, handles=winner.inc.handles,
         handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
-        cut_assignment=[a.labels.copy() for a in assign],
-        energy=float(energy), trials=len(search.cache), mode=mode, warnings=warnings,
+        cut_assignment=[a.labels.copy() for a in choice], energy=float(winner.energy), trials=len(search.cache),
+        mode=mode, warnings=warnings, cut_switches=[a.switches.copy() for a in choice], region_keys=keys,
+        reused_regions=reused, budget_regions=over,
     )
-
-
-def _option_fn(n: int, junctions: np.ndarray):
-    """Option index -> Assignment for one region (2 options for even k, 2 (n - k) for odd k)."""
-    if len(junctions) % 2 == 0:
-        return lambda i: alternating(junctions, i)
-    return lambda i: odd_assignment(n, junctions, i)

@@ -272,3 +272,43 @@ def test_blank_pair_is_paper(rife, monkeypatch):
     np.testing.assert_array_equal(mid[..., :3], 1.0)
     np.testing.assert_array_equal(mid[..., 3], 0.0)
     np.testing.assert_array_equal(flow, 0.0)
+
+
+@pytest.fixture(scope="module")
+def onnx_rife(tmp_path_factory):
+    """The same network run by ONNX Runtime, exported into a fresh cache (a few seconds)."""
+    return R.load_rife(runtime="onnxruntime", cache_dir=tmp_path_factory.mktemp("rife-cache"))
+
+
+@pytest.mark.slow  # exports the network: seconds
+def test_onnx_runtime_gives_the_same_frames(rife, onnx_rife):
+    """ONNX Runtime on the exported network: same flows (1e-3 px) and midpoints (1e-4) as torch, on shapes the
+    export never saw (odd sizes padded to other multiples of 32, two pairs at once)."""
+    assert onnx_rife.runtime == "onnxruntime" and rife.runtime == "torch"
+    i0, i1 = shapes_rgb(0), shapes_rgb(6)
+    mid_t, flow_t, mask_t = rife.forward_rgb(i0, i1)
+    mid_o, flow_o, mask_o = onnx_rife.forward_rgb(i0, i1)
+    assert flow_t.abs().max() > 2.0
+    assert (flow_o - flow_t).abs().max() < 1e-3 and (mask_o - mask_t).abs().max() < 1e-4
+    assert (mid_o - mid_t).abs().max() < 1e-4
+    a = np.concatenate([disc_rgba(30, h=75, w=100, cy=37), disc_rgba(20, h=75, w=100, cy=30)])
+    b = np.concatenate([disc_rgba(44, h=75, w=100, cy=37), disc_rgba(26, h=75, w=100, cy=40)])
+    (mt, ft), (mo, fo) = rife.midpoint(a, b), onnx_rife.midpoint(a, b)
+    assert np.abs(fo - ft).max() < 1e-3 and np.abs(mo - mt).max() < 1e-4
+    # the export is cached under the weights' and the module's digests, and read, not made, the next time
+    path = onnx_rife.onnx_path
+    assert path.is_file() and R.WEIGHTS_SHA256[:16] in path.name
+    stamp = path.stat().st_mtime_ns
+    again = R.load_rife(runtime="onnxruntime", cache_dir=path.parent)
+    assert again.onnx_path == path and path.stat().st_mtime_ns == stamp
+
+
+def test_onnx_runtime_without_a_writable_cache_falls_back_to_torch(tmp_path):
+    """A cache directory that cannot be made: a warning, and torch runs the network."""
+    blocker = tmp_path / "file"
+    blocker.write_text("not a directory")
+    with pytest.warns(UserWarning, match="torch runs it"):
+        r = R.load_rife(runtime="onnxruntime", cache_dir=blocker / "cache")
+    assert r.runtime == "torch"
+    with pytest.raises(ShotError, match="runtime"):
+        R.load_rife(runtime="tensorflow")

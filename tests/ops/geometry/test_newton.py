@@ -1,0 +1,61 @@
+"""Tests of ops.geometry.newton: the assembled Hessian against finite differences, and Newton's convergence."""
+import numpy as np
+
+from ops.geometry.deform import Deformer, count_flipped
+from ops.geometry.newton import NewtonSystem
+from tests.ops.geometry.test_deform import MID, bend, strip
+from tests.ops.geometry.test_energy import setup_mesh
+
+
+def _system(d: Deformer, project: bool) -> NewtonSystem:
+    ns = NewtonSystem(d.energy_fn, d._diagonal)
+    if not project:  # the raw Hessian, to compare with finite differences of the gradient
+        raw = d.energy_fn.face_hessians
+        ns.energy_fn = type("Raw", (), {"coef": d.energy_fn.coef, "face_hessians": lambda _, X: raw(X, project=False)})()
+    return ns
+
+
+def test_hessian_matches_finite_differences_of_the_gradient():
+    V, F, h = strip()
+    d = Deformer(V, F, h)
+    rng = np.random.default_rng(0)
+    X = d.rest_n + 0.0005 * rng.standard_normal(d.rest_n.shape)
+    T = X[h] + 0.01
+    H = _system(d, project=False).full_matrix(X)
+    for _ in range(3):
+        v = rng.standard_normal(X.shape)
+        eps = 1e-6
+        gp = d.energy_fn.value_grad(X + eps * v, T)[1]
+        gm = d.energy_fn.value_grad(X - eps * v, T)[1]
+        fd = ((gp - gm) / (2 * eps)).ravel()
+        assert np.abs(H @ v.ravel() - fd).max() <= 1e-6 * np.abs(fd).max()
+    assert abs(H - H.T).max() == 0.0
+
+
+def test_projected_hessian_is_positive_definite_on_a_squashed_mesh():
+    res, _ = setup_mesh()
+    d = Deformer(res.V, res.F, res.point_vertex)
+    X = d.rest_n * [0.5, 0.7]  # every face smaller than at rest: the raw Hessian is indefinite
+    raw = _system(d, project=False).full_matrix(X).toarray()
+    proj = _system(d, project=True).full_matrix(X).toarray()
+    assert np.linalg.eigvalsh(raw).min() < 0 < np.linalg.eigvalsh(proj).min()
+
+
+def test_newton_converges_in_few_iterations_to_the_same_minimum():
+    V, F, h = strip()
+    for degrees in (40, 120):  # 120 from rest is far: Newton meets the injectivity bound and L-BFGS steps take over
+        lbfgs = Deformer(V, F, h, method="lbfgs").solve(bend(MID, degrees))
+        newton = Deformer(V, F, h, method="newton").solve(bend(MID, degrees))
+        assert newton.converged and count_flipped(newton.x, F) == 0
+        assert np.isclose(newton.energy, lbfgs.energy, rtol=1e-5)
+        assert np.abs(newton.x - lbfgs.x).max() < 0.3  # pixels: both stop at gradient norm 0.01 on a flat valley
+        assert newton.iterations < lbfgs.iterations
+    # warm-started from the neighbouring pose (as every frame of a lane and every warm cut candidate is)
+    start = Deformer(V, F, h).solve(bend(MID, 100)).x
+    lbfgs = Deformer(V, F, h, method="lbfgs").solve(bend(MID, 120), x0=start)
+    newton = Deformer(V, F, h, method="newton").solve(bend(MID, 120), x0=start)
+    assert np.isclose(newton.energy, lbfgs.energy, rtol=1e-5) and newton.iterations * 3 < lbfgs.iterations
+    # to a tight tolerance the difference grows: Newton's steps near the minimum converge faster than linearly
+    newton = Deformer(V, F, h, method="newton").solve(bend(MID, 40), grad_tol=1e-6)
+    lbfgs = Deformer(V, F, h, method="lbfgs").solve(bend(MID, 40), grad_tol=1e-6)
+    assert newton.converged and newton.iterations * 4 < lbfgs.iterations
