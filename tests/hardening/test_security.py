@@ -89,10 +89,12 @@ def test_the_scan_finds_what_it_looks_for(tmp_path):
 def test_ui_binds_to_loopback(monkeypatch, tmp_path):
     calls = []
     monkeypatch.setenv("INBETWEEN_HOME", str(tmp_path / "home"))
-    monkeypatch.setattr("os.execvp", lambda exe, argv: calls.append(argv))
+    # `ui` replaces this process with Dagster's (os.execv): a test that misses that runs `dagster dev` in pytest's place
+    monkeypatch.setattr("os.execv", lambda exe, argv: calls.append(argv))
+    monkeypatch.setattr("os.execvp", lambda exe, argv: pytest.fail(f"ui must exec this interpreter, not PATH's: {argv}"))
     assert main(["ui"]) == 0
     argv = calls[0]
-    assert argv[:2] == ["dagster", "dev"] and argv[argv.index("-h") + 1] == "127.0.0.1"
+    assert argv[1:4] == ["-m", "dagster", "dev"] and argv[argv.index("-h") + 1] == "127.0.0.1"
 
 
 def test_weights_that_would_run_code_are_refused_without_running_it(tmp_path):
