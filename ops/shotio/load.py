@@ -429,7 +429,8 @@ def load_shot(shot_dir: str | Path) -> Shot:
     file version)."""
     file, data = read_shot_json(shot_dir)
     root = file.parent
-    version = FORMATS.get(data.get("format"))
+    fmt = data.get("format")
+    version = FORMATS.get(fmt) if isinstance(fmt, str) else None  # a list or an object is no format either
     if version is None:
         raise ShotError(file, "format", f"is {_show(data.get('format'))}",
                         f'set "format": "{FORMAT_V2}" (or "{FORMAT}" for a two-key v1 shot)')
