@@ -60,3 +60,25 @@ def test_an_untracked_target_is_broken(tmp_path):
     (root / "docs").mkdir()
     (root / "docs" / "new.md").write_text("# New\n")  # on disk but not added: a clone would not have it
     assert [p.split(":")[0] for p in check_links.check(root)] == ["README.md"]
+
+
+def test_cli_md_names_every_command_and_option():
+    """docs/cli.md has a section per subcommand of assets/cli.py, naming each of its arguments (an option added to
+    the parser without its documentation fails here)."""
+    import argparse
+
+    from assets.cli import _parser
+
+    text = (ROOT / "docs" / "cli.md").read_text(encoding="utf-8")
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    missing = []
+    for name, parser in sub.choices.items():
+        head = f"\n## `inbetween {name}`\n"
+        assert head in text, f"docs/cli.md has no section {head.strip()}"
+        section = text.split(head, 1)[1].split("\n## ", 1)[0]
+        for action in parser._actions:
+            if isinstance(action, argparse._HelpAction):
+                continue
+            names = action.option_strings or [action.dest.upper().rstrip("S")]
+            missing += [f"{name} {n}" for n in names if f"`{n}" not in section]
+    assert not missing, f"docs/cli.md does not name: {', '.join(missing)}"
