@@ -1,4 +1,4 @@
-"""The `inbetween` command line (SHOT_FORMAT.md): run, batch, status, masks, eval, ui, edit, worker, new, motion. It parses, calls, prints.
+"""The `inbetween` command line (docs/cli.md; the shot format: docs/shot-format.md). It parses, calls, prints.
 
 The work is done by assets/run/, the run machinery every front end shares.
 Bad input prints one line and exits 2; a stage that fails prints one line

@@ -18,7 +18,7 @@ With --samples it also scores the generated shots in data_samples/ against their
 enclosed paper 0): IoU of the drawn silhouette (coverage >= 0.5) with gt >= 0.5, holes found / true
 (connected, of any size), mean |coverage - gt| on gt's fractional edge, and the unmixing PSNR; overlays
 samples_<shot>_key<k>.png (magenta outline = true holes).
-Run: .venv/bin/python benchmarks/bench_masks.py [--data DIR] [--out DIR] [--grabcut] [--samples]
+Run: .venv/bin/python benchmarks/bench_masks.py DATA_DIR [--out DIR] [--grabcut] [--samples]
 Target: mean IoU >= 0.95 and every character >= 0.92.
 """
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Occlusion masks: IoU of the drawing predictor, the hybrid and the skeleton rule on data never trained on, the
 pair regions' fronts, timing, real drawings, end to end.
 
-    python benchmarks/bench_occlusion.py --cache /tmp/occ_cache --bvh BVH_DIR      # every set, 60 samples each
+    python benchmarks/bench_occlusion.py --cache CACHE_DIR --bvh BVH_DIR      # every set, 60 samples each
     python benchmarks/bench_occlusion.py --cache C --n 100 --sets "2d test"         # one set, more samples
     python benchmarks/bench_occlusion.py --real REALDEV_DIR                          # + overlays of real drawings
     python benchmarks/bench_occlusion.py --e2e --shots arm_cross legs_cross         # + end to end (slow: minutes a shot)

@@ -8,7 +8,7 @@ whole image, and the warnings the stages logged (snapped joints, holes, dropped 
 Data are read from the folder given as the first argument (AnimatedDrawings' examples/characters; never copied
 into this repo); the shot folders go to a
 temporary directory, or to --keep DIR to look at them.
-Run: .venv/bin/python benchmarks/bench_realdev.py [--only char1 ...] [--frames 3] [--keep DIR]
+Run: .venv/bin/python benchmarks/bench_realdev.py DATA_DIR [--only char1 ...] [--frames 3] [--keep DIR]
 """
 from __future__ import annotations
 

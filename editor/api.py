@@ -1,4 +1,4 @@
-"""The JSON API under /api (README "The editor"): thin handlers over editor/state.py and the run machinery.
+"""The JSON API under /api (docs/editor.md, "The JSON API"): thin handlers over editor/state.py and the run machinery.
 
 Every error is a JSON object {"error": "<one line>", "field": "<shot.json field or null>"}: the CLI's
 ShotError message for bad input, so the page can show it next to the item the field names. A malformed

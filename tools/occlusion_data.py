@@ -8,8 +8,8 @@ parents (J,) int64, joints, label (class or body family), style, view ('' for 2d
 and pairs (JSON: per mask its front and back bone, adjacency; see the generators). Generating a sample costs
 ~0.2-0.5 s; reading a cached one ~5 ms.
 
-    python tools/occlusion_data.py --split train --start 0 --n 4000 --out /tmp/occ_cache [--workers 2]
-    python tools/occlusion_data.py --generator 3d --bvh BVH_DIR --split train --n 3000 --out /tmp/occ_cache
+    python tools/occlusion_data.py --split train --start 0 --n 4000 --out CACHE_DIR [--workers 2]
+    python tools/occlusion_data.py --generator 3d --bvh BVH_DIR --split train --n 3000 --out CACHE_DIR
 
 With --generator 3d, --start/--n count the split's trained-on indices (held-out families skipped) for the
 train split, and every index for the test split. BVH_DIR: e.g. the AnimatedDrawings clips

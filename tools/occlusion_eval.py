@@ -8,7 +8,7 @@ Four sets, all from the generators' test splits (seeds 10 000 000 + index, never
 The score is the IoU of a predictor's union of regions against the union of the truth (every overlap of two
 bones' shapes, joint overlaps included), per keyframe with an occlusion, averaged; given the true foreground.
 
-    python tools/occlusion_eval.py --cache /tmp/occ_cache --bvh BVH_DIR [--n 60] [--weights W.npz]
+    python tools/occlusion_eval.py --cache CACHE_DIR --bvh BVH_DIR [--n 60] [--weights W.npz]
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """A contact sheet of the occlusion predictor on the validation sets: drawing | truth | the drawing predictor's pair
 regions (as the masks stage makes them), front bones thick, per sample its IoU.
 
-    python tools/occlusion_preview.py --cache /tmp/occ_cache --bvh BVH_DIR --out docs/occlusion_preview.png [--n 4]
+    python tools/occlusion_preview.py --cache CACHE_DIR --bvh BVH_DIR --out docs/occlusion_preview.png [--n 4]
 
 Rows: per validation set (tools/occlusion_eval.py) its first n samples with an occlusion, the 3D sets' side and
 three-quarter views first. A failure shows at a glance: regions where the truth has none, a limb over the body

@@ -9,7 +9,7 @@ with a fixed thread count. At the end it writes the weights, patches WEIGHTS_SHA
 the stages using the network get a new code version) and prints the validation IoU on data never trained on
 (tools/occlusion_eval.py: the 2D test split, the 3D test split's seen families and its two held-out families).
 
-    python tools/train_occlusion.py --cache /tmp/occ_cache --bvh BVH_DIR [--samples3d 3000] [--samples 1200]
+    python tools/train_occlusion.py --cache CACHE_DIR --bvh BVH_DIR [--samples3d 3000] [--samples 1200]
         [--steps 2500] [--threads 2]
 
 BVH_DIR: the AnimatedDrawings clips (examples/bvh of facebookresearch/AnimatedDrawings, MIT). The shipped

@@ -1,4 +1,4 @@
-"""Skeleton interpolation between given poses: per bone, along the hierarchy (SHOT_FORMAT.md `frames`)."""
+"""Skeleton interpolation between given poses: per bone, along the hierarchy (docs/shot-format.md, `frames`)."""
 from __future__ import annotations
 
 import math

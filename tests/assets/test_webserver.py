@@ -1,4 +1,4 @@
-"""The Definitions load in dagster-webserver and its GraphQL API shows the graph of DESIGN.md."""
+"""The Definitions load in dagster-webserver and its GraphQL API shows the graph of docs/design.md."""
 from __future__ import annotations
 
 import json

@@ -1,7 +1,7 @@
 """A small valid shot written from code, and the corruptions the hardening tests apply to it.
 
 The shot is 64 x 64 px (above MIN_SIDE), six joints, two poses plus `frames`, a T-junction, and
-manual masks for keyframe 0 so that every field of SHOT_FORMAT.md can be mutated.
+manual masks for keyframe 0 so that every field of docs/shot-format.md can be mutated.
 """
 from __future__ import annotations
 

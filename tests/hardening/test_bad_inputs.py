@@ -1,4 +1,4 @@
-"""The table of bad inputs (README, "Bad input"): each gets its one-line error naming the field, at once.
+"""The table of bad inputs (docs/cli.md, "Bad input"): each gets its one-line error naming the field, at once.
 
 Every case starts from the valid small shot of shots.py and changes one thing. Counts beyond their
 bound must fail before any work proportional to them: each case runs under a second.

@@ -1,4 +1,4 @@
-// The editor's calls to its server (/api, see the README): every answer is JSON or a PNG.
+// The editor's calls to its server (/api, see docs/editor.md): every answer is JSON or a PNG.
 
 export class ApiError extends Error {
   constructor(status, data) {

@@ -1,5 +1,5 @@
 // Zoom and pan of a canvas showing an image: screen = image * zoom + pan (CSS pixels), image pixels with
-// their centres at integer coordinates (SHOT_FORMAT.md), so pixel i covers [i - 0.5, i + 0.5).
+// their centres at integer coordinates (docs/shot-format.md), so pixel i covers [i - 0.5, i + 0.5).
 
 export class Viewport {
   constructor() { this.zoom = 1; this.panX = 0; this.panY = 0; }
