@@ -24,15 +24,26 @@ from ops.errors import ShotError
 from ops.preview import to_png_bytes
 from ops.shotio.image_io import image_size, read_image, to_rgba
 from ops.shotio.interpolate import resample_poses
-from ops.shotio.load import MAX_FRAMES, MAX_JOINTS, load_shot, parse_poses, parse_skeleton, read_shot_json
+from ops.shotio.load import (
+    FORMAT_V2,
+    IMAGE_SUFFIXES,
+    MAX_FRAMES,
+    MAX_JOINTS,
+    MAX_KEYS,
+    load_shot,
+    parse_poses,
+    parse_skeleton,
+    read_shot_json,
+)
 from ops.skeleton.templates import TEMPLATES
 
+from . import keys as key_edits
 from . import params
 from .jointcheck import check_key_joints, mask_inside
 from .layers import refined_json
 from .maskfiles import check_name, decode_mask, encode_mask
 from .repose import png_bytes
-from .shotfile import keyframe_names, referenced_files, save, validate
+from .shotfile import keyframe_names, referenced_files, save, validate, write_atomic
 from .stage_warnings import stage_warnings
 from .state import EditorState
 
@@ -76,9 +87,16 @@ def _saved(ed: EditorState) -> dict:
     return read_shot_json(ed.shot_dir)[1]
 
 
+def _n_keys(data: dict) -> int:
+    """Keys of a shot.json object as the graph counts them: v1 two, v2 its keyframes (1..MAX_KEYS)."""
+    if data.get("format") != FORMAT_V2:
+        return 2
+    return min(MAX_KEYS, max(1, len(keyframe_names(data))))
+
+
 def _key(request: Request, ed: EditorState) -> int:
-    """Path parameter k: a keyframe of the saved shot (at least the two of format v1)."""
-    return params.path_int(request, "k", 0, max(2, len(keyframe_names(_saved(ed)))) - 1)
+    """Path parameter k: a keyframe of the saved shot (the two of format v1)."""
+    return params.path_int(request, "k", 0, _n_keys(_saved(ed)) - 1)
 
 
 def _layer(request: Request) -> tuple[str, int | None]:
@@ -113,9 +131,13 @@ async def info(request: Request) -> Response:
             size = list(_size(ed))
         except ShotError:
             size = None
-        graph = shot_graph(2)  # the editor edits two-key shots (v2's timeline of keys comes with the editor's)
+        try:
+            n_keys = _n_keys(_saved(ed))
+        except ShotError:
+            n_keys = 2
+        graph = shot_graph(n_keys)
         return JSONResponse({"shot_dir": str(ed.shot_dir), "partition": ed.partition, "size": size,
-                             "out_dir": str(ed.reruns.out_dir), "stages": list(graph.stages),
+                             "out_dir": str(ed.reruns.out_dir), "keys": n_keys, "stages": list(graph.stages),
                              "parents": {n: list(p) for n, p in graph.parents.items()}, "sources": list(graph.sources)})
 
     return await _call(work)
@@ -124,6 +146,16 @@ async def info(request: Request) -> Response:
 def _etag(ed: EditorState) -> str:
     """Version of shot.json on disk: a PUT carrying another one (If-Match) would overwrite someone else's edit."""
     return '"' + hashlib.sha256((ed.shot_dir / "shot.json").read_bytes()).hexdigest()[:20] + '"'
+
+
+def _changed_on_disk(request: Request, ed: EditorState) -> bool:
+    expected = request.headers.get("if-match")
+    return expected is not None and expected != _etag(ed)
+
+
+def _changed_error(ed: EditorState) -> JSONResponse:
+    return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
+                  "fix: reload the page (saving would overwrite that change)", 409)
 
 
 @handler
@@ -160,10 +192,8 @@ async def put_shot(request: Request) -> Response:
 
     def work():
         with ed.save_lock:
-            expected = request.headers.get("if-match")
-            if expected is not None and expected != _etag(ed):
-                return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
-                              "fix: reload the page (saving would overwrite that change)", 409)
+            if _changed_on_disk(request, ed):
+                return _changed_error(ed)
             try:
                 before = _saved(ed)
             except ShotError:
@@ -243,6 +273,101 @@ async def templates(request: Request) -> Response:
     """The skeleton templates a skeleton can start from: {name: {"joints", "parents", "positions"}}, positions
     (u, v) in the unit box of the box the user drags (ops/skeleton/templates.py)."""
     return JSONResponse({name: t.to_json() for name, t in TEMPLATES.items()})
+
+
+# ---------------------------------------------------------------- the timeline of keys (editor/keys.py)
+
+MAX_UPLOAD_BYTES = 256 * 2**20  # a keyframe of MAX_SIDE px per side as 16-bit RGBA TIFF is about 200 MB
+
+
+def _structural(request: Request, ed: EditorState, edit, new_files: dict[str, bytes] | None = None) -> Response:
+    """Apply `edit(saved shot.json object, file) -> (object, extra answer fields)` to the saved shot, validate
+    the result as the CLI would (with `new_files` in place), write the new files and shot.json, queue the rerun.
+    Nothing is written when the edit or the validation refuses."""
+    with ed.save_lock:
+        if _changed_on_disk(request, ed):
+            return _changed_error(ed)
+        file, before = read_shot_json(ed.shot_dir)
+        data, extra = edit(before, file)
+        validate(ed.shot_dir, data, {}, ed.scratch, new_files=new_files)
+        for rel, content in (new_files or {}).items():
+            write_atomic(ed.shot_dir / rel, content)
+        save(ed.shot_dir, data, {})
+        ed.reruns.request("timeline")  # from here on /api/status reports this edit's rerun
+        return JSONResponse({"ok": True, "keys": len(data["keyframes"]), "format": data["format"], **extra},
+                            headers={"ETag": _etag(ed)})
+
+
+@handler
+async def add_key(request: Request) -> Response:
+    """Query frame (the output frame) and name (the file's name), body the image file: a key there, the file
+    copied into the shot folder under a free name. {"ok", "k" (the new key's index), "name", "keys"}."""
+    ed = _ed(request)
+    if "frame" not in request.query_params:
+        raise ShotError(params.where(request), "frame", "is missing", "give the new key's output frame as ?frame=N")
+    frame = params.query_int(request, "frame", 0, 0, MAX_FRAMES - 1)
+    raw_name = request.query_params.get("name")
+    if not raw_name:
+        raise ShotError(params.where(request), "name", "is missing", "give the image file's name as ?name=FILE.png")
+    body = await request.body()
+    if not body:
+        raise ShotError(params.where(request), "body", "is empty", "send the image file as the request body")
+    if len(body) > MAX_UPLOAD_BYTES:
+        raise ShotError(params.where(request), "body", f"is {len(body)} bytes, more than {MAX_UPLOAD_BYTES}",
+                        "upload a smaller image file")
+
+    def work():
+        file, saved = read_shot_json(ed.shot_dir)
+        taken = set(keyframe_names(saved)) | set(referenced_files(saved)) | {p.name for p in ed.shot_dir.iterdir()}
+        name = key_edits.upload_name(raw_name, taken, IMAGE_SUFFIXES, file)
+        motion = load_shot(ed.shot_dir).poses  # (F, J, 3): the new key's pose starts from the motion there
+
+        def edit(data, file):
+            out, k = key_edits.add_key(data, file, name, frame, motion)
+            return out, {"k": k, "name": name}
+
+        return _structural(request, ed, edit, {name: body})
+
+    return await _call(work)
+
+
+@handler
+async def remove_key(request: Request) -> Response:
+    """Remove key k (its image file stays in the folder); refuses the last key. {"ok", "keys", "dropped"}."""
+    ed = _ed(request)
+
+    def work():
+        k = _key(request, ed)
+
+        def edit(data, file):
+            out, dropped = key_edits.remove_key(data, file, k)
+            return out, {"dropped": dropped}
+
+        return _structural(request, ed, edit)
+
+    return await _call(work)
+
+
+@handler
+async def move_key(request: Request) -> Response:
+    """Body {"frame": N}: key k at output frame N, its pose with it. {"ok", "k", "keys", "dropped"}."""
+    ed = _ed(request)
+    body = await params.json_body(request)
+    frame = body.get("frame")
+    if not isinstance(frame, int) or isinstance(frame, bool) or not 0 <= frame < MAX_FRAMES:
+        raise ShotError(params.where(request), "frame", f"{json.dumps(frame)[:40]} is not a frame",
+                        f"give frame as an integer from 0 to {MAX_FRAMES - 1}")
+
+    def work():
+        k = _key(request, ed)
+
+        def edit(data, file):
+            out, dropped = key_edits.move_key(data, file, k, frame)
+            return out, {"k": k, "dropped": dropped}
+
+        return _structural(request, ed, edit)
+
+    return await _call(work)
 
 
 # ---------------------------------------------------------------- images and masks
@@ -454,9 +579,18 @@ async def matrix_png(request: Request) -> Response:
     return _png(await run_in_threadpool(_ed(request).results.matrix_png, thumb), "image matrix")
 
 
+def _graph(ed: EditorState):
+    """The stage graph of the saved shot (two keys while shot.json cannot be read)."""
+    try:
+        return shot_graph(_n_keys(_saved(ed)))
+    except ShotError:
+        return shot_graph(2)
+
+
 async def previews(request: Request) -> Response:
     ed = _ed(request)
-    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in shot_graph(2).stages],
+    stages = (await run_in_threadpool(_graph, ed)).stages
+    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in stages],
                         headers=NO_STORE)
 
 
@@ -464,7 +598,7 @@ async def previews(request: Request) -> Response:
 async def preview_png(request: Request) -> Response:
     ed = _ed(request)
     stage = params.choice(request, "stage", request.path_params["stage"].removesuffix(".png"),
-                          tuple(shot_graph(2).stages))
+                          tuple((await run_in_threadpool(_graph, ed)).stages))
     path: Path = ed.store.preview_path(stage, ed.partition)
     return _png(path.read_bytes() if path.is_file() else None, f"preview of {stage}")
 
@@ -486,6 +620,9 @@ ROUTES = [
     Route("/api/plan", get_plan),
     Route("/api/warnings", get_warnings),
     Route("/api/templates", templates),
+    Route("/api/keys", add_key, methods=["POST"]),
+    Route("/api/keys/{k}", remove_key, methods=["DELETE"]),
+    Route("/api/keys/{k}/move", move_key, methods=["POST"]),
     Route("/api/keyframes/{k}.png", keyframe),
     Route("/api/masks/{name:path}", get_mask, methods=["GET"]),
     Route("/api/masks/{name:path}", put_mask, methods=["PUT"]),
