@@ -57,7 +57,8 @@ def to_v2(data: dict, file: Path) -> dict:
     frames = out.pop("frames", None)
     n_out = frames if isinstance(frames, int) and not isinstance(frames, bool) and frames >= 2 else len(poses)
     for i, p in enumerate(poses):
-        p["frame"] = _frame(p.pop("t") * (n_out - 1)) if frames is not None else i
+        t = p.pop("t")
+        poses[i] = {"frame": _frame(t * (n_out - 1)) if frames is not None else i, **p}
     out["format"] = FORMAT_V2
     out["key_frames"] = [0, n_out - 1]
     return out
@@ -118,9 +119,11 @@ def add_key(data: dict, file: Path, name: str, frame: int, motion: np.ndarray) -
                 f"add the second key at frame {int(np.ceil(last_pose))} or later (its poses end at the last key)")
     k = sum(f < frame for f in kf)
     if not any(p["frame"] == frame for p in poses):
-        pose = motion[min(frame, len(motion) - 1)]
-        poses.append({"frame": frame, "joints": [[round(float(x), 2), round(float(y), 2), round(float(z), 4)]
-                                                  for x, y, z in pose]})
+        if frame < len(motion):
+            joints = [[round(float(c), 4) for c in j] for j in motion[frame]]
+        else:  # past the motion's end: the last pose, as given
+            joints = copy.deepcopy(max(poses, key=lambda p: p["frame"])["joints"])
+        poses.append({"frame": frame, "joints": joints})
         poses.sort(key=lambda p: p["frame"])
     ease = out.get("ease")
     if isinstance(ease, list) and n > 1 and len(ease) == n - 1:
