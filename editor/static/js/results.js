@@ -2,6 +2,7 @@
 // I(alpha, t) with the chosen and diagonal paths and the abrupt transitions, and any stage's preview.
 
 import { getJSON, loadImage } from './api.js';
+import { keyFrames } from './timeline.js';
 import { fitCanvas } from './viewport.js';
 
 const THUMB = 48;   // matrix cell size requested from the server, pixels
@@ -119,10 +120,15 @@ export class ResultsView {
     }
     ctx.drawImage(f, x, y, w, h);
     const t = this.info.times[this.index], a = this.info.alphas[this.index];
-    this.label.textContent = `frame ${this.index} / ${this.frames.length - 1}   t = ${t.toFixed(3)}   alpha = ${a.toFixed(3)}`;
+    // v2 times are output frames; a key's frame shows its drawing (its segment's alpha 0 or 1)
+    const v2 = this.app.doc.shot.format === 'inbetween-shot/2';
+    const key = keyFrames(this.app.doc.shot).indexOf(this.index);
+    const where = `${v2 ? '' : `   t = ${t.toFixed(3)}`}${key >= 0 ? `   key${key}` : ''}`;
+    this.label.textContent = `frame ${this.index} / ${this.frames.length - 1}${where}   alpha = ${a.toFixed(3)}`;
+    this.label.dataset.frame = String(this.index);
     ctx.fillStyle = '#e4e6eb';
     ctx.font = '12px system-ui';
-    ctx.fillText(`frame ${this.index}   t = ${t.toFixed(3)}`, x, 16);
+    ctx.fillText(`frame ${this.index}${where}`, x, 16);
   }
 
   _matrixLayout() {
@@ -185,7 +191,8 @@ export class ResultsView {
     if (!P) { el.textContent = 'no image matrix yet'; return; }
     const chosen = this.info && this.info.blend === 'diagonal' ? P.diagonal : P.optimal;
     const abrupt = chosen.abrupt.map((a, i) => (a ? `t ${P.times[i].toFixed(2)}→${P.times[i + 1].toFixed(2)}` : null)).filter(Boolean);
-    el.textContent = `cost: chosen ${chosen.cost.toFixed(4)}, diagonal ${P.diagonal.cost.toFixed(4)}\n`
+    const seg = this.app.info.keys > 2 ? 'segment 0 (key0 to key1)\n' : '';  // the store's seg0 matrix and paths
+    el.textContent = `${seg}cost: chosen ${chosen.cost.toFixed(4)}, diagonal ${P.diagonal.cost.toFixed(4)}\n`
       + `abrupt: ${abrupt.length ? abrupt.join(', ') : 'none'}`;
     el.dataset.abrupt = String(abrupt.length);
   }
@@ -198,12 +205,20 @@ export class ResultsView {
     if (t >= 0 && t < this.frames.length) this.show(t);
   }
 
+  /** The stage menu of the previews, for the graph of the shot's keys. */
+  setGraph(info) {
+    const sel = document.getElementById('preview-stage');
+    const none = document.createElement('option');
+    none.value = ''; none.textContent = '(choose a stage)';
+    const keep = sel.value;
+    sel.replaceChildren(none, ...info.stages.map((s) => { const o = document.createElement('option'); o.value = o.textContent = s; return o; }));
+    sel.value = info.stages.includes(keep) ? keep : '';
+  }
+
   _previews() {
     const sel = document.getElementById('preview-stage');
     const img = document.getElementById('preview-img');
-    const none = document.createElement('option');
-    none.value = ''; none.textContent = '(choose a stage)';
-    sel.append(none, ...this.app.info.stages.map((s) => { const o = document.createElement('option'); o.value = o.textContent = s; return o; }));
+    this.setGraph(this.app.info);
     sel.addEventListener('change', () => this.showPreview(sel.value));
     img.addEventListener('error', () => {
       img.hidden = true;
