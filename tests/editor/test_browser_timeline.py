@@ -26,7 +26,8 @@ def test_timeline_selects_a_key_and_adds_one_from_an_image_file(serve, tmp_path,
     keys = page.locator("#tl-track .tl-key")
     assert keys.count() == 3
     assert [keys.nth(i).get_attribute("data-frame") for i in range(3)] == ["0", "8", "16"]
-    xs = [keys.nth(i).bounding_box()["x"] for i in range(3)]
+    boxes = [keys.nth(i).bounding_box() for i in range(3)]
+    xs = [b["x"] + b["width"] / 2 for b in boxes]
     assert xs[0] < xs[1] < xs[2] and abs((xs[1] - xs[0]) - (xs[2] - xs[1])) < 2  # at their frames: 8 apart each
     assert page.evaluate(SHOWN) == "0,1"
 
