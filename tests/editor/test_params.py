@@ -42,6 +42,16 @@ BAD = [  # (method, path, body, the parameter the error names)
     ("GET", "/api/previews/no_such_stage.png", None, "stage"),
     ("GET", "/api/masks/../escape.png", None, "mask name"),
     ("PUT", "/api/masks/key0.png", b"x", "mask name"),
+    ("POST", "/api/keys?name=a.png", b"x", "frame"),
+    ("POST", "/api/keys?frame=-3&name=a.png", b"x", "frame"),
+    ("POST", "/api/keys?frame=4000&name=a.png", b"x", "frame"),
+    ("POST", "/api/keys?frame=4", b"x", "name"),
+    ("POST", "/api/keys?frame=4&name=a.png", b"", "body"),
+    ("DELETE", "/api/keys/x", None, "k"),
+    ("DELETE", "/api/keys/2", None, "k"),
+    ("POST", "/api/keys/1/move", b"{not json", "body"),
+    ("POST", "/api/keys/1/move", {"frame": True}, "frame"),
+    ("POST", "/api/keys/one/move", {"frame": 3}, "k"),
 ]
 
 
