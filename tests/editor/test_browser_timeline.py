@@ -51,3 +51,10 @@ def test_timeline_selects_a_key_and_adds_one_from_an_image_file(serve, tmp_path,
     assert load_shot(shot).key_frames == (0, 8, 12, 16)
     assert page.evaluate("window.editorApp.info.stages.includes('seg2/frames')")
     assert page.locator("#error-bar").is_hidden()
+
+    page.keyboard.press(",")  # the previous key; then move it in time with its frame field
+    until(page, "() => document.querySelector('.tl-key.active').dataset.k === '1'", 10)
+    page.fill("#key-frame", "10")
+    page.press("#key-frame", "Enter")
+    until(page, "() => document.querySelector('.tl-key[data-k=\"1\"]').dataset.frame === '10'", 30)
+    assert load_shot(shot).key_frames == (0, 10, 12, 16)

@@ -798,6 +798,8 @@ class App {
       'tool-skeleton': () => this.setTool('skeleton'), 'tool-template': () => this.setTool('template'),
       'brush-smaller': () => this.setBrush(this.brush - 2), 'brush-larger': () => this.setBrush(this.brush + 2),
       'new-region': () => this.newRegion(this.focusedKey),
+      'key-prev': () => { if (this.focusedKey > 0) this.focusKey(this.focusedKey - 1); },
+      'key-next': () => { if (this.focusedKey < keyCount(this.doc.shot) - 1) this.focusKey(this.focusedKey + 1); },
       delete: () => {
         const sel = this.selected;
         if (sel && sel.kind === 'joint') { this.removeJoint(sel.index); return; }
