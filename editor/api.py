@@ -568,15 +568,23 @@ async def frame_png(request: Request) -> Response:
     return _png(await run_in_threadpool(_ed(request).results.frame_png, i), f"frame {i}")
 
 
+def _segment(request: Request, ed: EditorState) -> int:
+    """Query parameter seg: a segment (k, k + 1) of the saved shot (default 0)."""
+    return params.query_int(request, "seg", 0, 0, max(1, _n_keys(_saved(ed)) - 1) - 1)
+
+
+@handler
 async def matrix(request: Request) -> Response:
-    got = await run_in_threadpool(_ed(request).results.paths_info)
+    ed = _ed(request)
+    got = await run_in_threadpool(lambda: ed.results.paths_info(_segment(request, ed)))
     return JSONResponse(got, headers=NO_STORE) if got else _error("no image matrix yet; save or run", 404)
 
 
 @handler
 async def matrix_png(request: Request) -> Response:
+    ed = _ed(request)
     thumb = params.query_int(request, "thumb", 64, 16, 256)
-    return _png(await run_in_threadpool(_ed(request).results.matrix_png, thumb), "image matrix")
+    return _png(await run_in_threadpool(lambda: ed.results.matrix_png(thumb, _segment(request, ed))), "image matrix")
 
 
 def _graph(ed: EditorState):

@@ -11,6 +11,8 @@ from .conftest import call
 BAD = [  # (method, path, body, the parameter the error names)
     ("GET", "/api/matrix.png?thumb=abc", None, "thumb"),
     ("GET", "/api/matrix.png?thumb=9999", None, "thumb"),
+    ("GET", "/api/matrix.png?seg=1", None, "seg"),
+    ("GET", "/api/matrix?seg=x", None, "seg"),
     ("POST", "/api/motion", {"times": ["a"]}, "times"),
     ("POST", "/api/motion", {"times": 0.5}, "times"),
     ("POST", "/api/motion", {"shot": [1, 2]}, "shot"),

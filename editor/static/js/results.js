@@ -31,6 +31,7 @@ export class ResultsView {
     this.msg = document.getElementById('results-msg');
     this.info = null;
     this.paths = null;
+    this.seg = undefined;  // the segment whose matrix is shown (null: one drawing, none)
     this.frames = [];
     this.onion = [];
     this.matrixImg = null;
@@ -65,16 +66,41 @@ export class ResultsView {
     this.index = Math.min(this.index, frames.length - 1);
     this.scrub.value = String(this.index);
     this.badge.dataset.version = v;
-    try {
-      this.paths = await getJSON('/api/matrix');
-      this.matrixImg = await loadImage(`/api/matrix.png?thumb=${THUMB}&v=${this.paths.matrix_version}`);
-    } catch {
-      this.paths = null; this.matrixImg = null;
-    }
+    this.seg = undefined;  // the matrix of the current frame's segment is fetched again
+    await this._loadSegment(this._segmentOf(this.index));
     this.setStale(this.app.stale('inbetween_frames'));
     this.draw();
-    this._matrixInfo();
   }
+
+  /** The segment (k, k + 1) that output frame i lies in (a key's frame: the segment it ends), null for one drawing. */
+  _segmentOf(i) {
+    const kf = keyFrames(this.app.doc.shot);
+    if (kf.length < 2) return null;
+    for (let s = 0; s < kf.length - 2; s++) if (i <= kf[s + 1]) return s;
+    return kf.length - 2;
+  }
+
+  /** Segment s's image matrix and paths (its columns are output frames key_frames[s] ... key_frames[s + 1]). */
+  async _loadSegment(s) {
+    if (s === this.seg) return;
+    this.seg = s;
+    let paths = null, img = null;
+    if (s !== null) {
+      try {
+        paths = await getJSON(`/api/matrix?seg=${s}`);
+        img = await loadImage(`/api/matrix.png?thumb=${THUMB}&seg=${s}&v=${paths.matrix_version}`);
+      } catch {
+        paths = null; img = null;
+      }
+    }
+    if (this.seg !== s) return;  // another segment was asked for meanwhile
+    this.paths = paths; this.matrixImg = img;
+    this._matrixInfo();
+    this.draw();
+  }
+
+  /** Output frame of the current segment's first column. */
+  _segStart() { return this.seg === null ? 0 : keyFrames(this.app.doc.shot)[this.seg]; }
 
   setStale(stale) {
     this.badge.textContent = stale ? 'stale' : '';
@@ -86,6 +112,8 @@ export class ResultsView {
     if (!this.frames.length) return;
     this.index = (i + this.frames.length) % this.frames.length;
     this.scrub.value = String(this.index);
+    const s = this._segmentOf(this.index);
+    if (s !== this.seg) this._loadSegment(s);
     this.draw();
   }
 
@@ -151,7 +179,7 @@ export class ResultsView {
     const centre = (t, a) => { const [x, y] = cell(t, a); return [ox + (x + THUMB / 2) * s, oy + (y + THUMB / 2) * s]; };
     const box = (t, a, inset) => { const [x, y] = cell(t, a); return [ox + x * s + inset, oy + y * s + inset, THUMB * s - 2 * inset, THUMB * s - 2 * inset]; };
     // current frame's column
-    const [cx] = cell(this.index, 0);
+    const [cx] = cell(this.index - this._segStart(), 0);
     ctx.fillStyle = '#ffffff22';
     ctx.fillRect(ox + (cx - PAD) * s, oy, (THUMB + 2 * PAD) * s, this.matrixImg.naturalHeight * s);
     // axis labels
@@ -188,10 +216,11 @@ export class ResultsView {
   _matrixInfo() {
     const el = document.getElementById('matrix-info');
     const P = this.paths;
-    if (!P) { el.textContent = 'no image matrix yet'; return; }
+    if (!P) { el.textContent = this.seg === null ? 'one drawing: no blending, no image matrix' : 'no image matrix yet'; return; }
     const chosen = this.info && this.info.blend === 'diagonal' ? P.diagonal : P.optimal;
     const abrupt = chosen.abrupt.map((a, i) => (a ? `t ${P.times[i].toFixed(2)}→${P.times[i + 1].toFixed(2)}` : null)).filter(Boolean);
-    const seg = this.app.info.keys > 2 ? 'segment 0 (key0 to key1)\n' : '';  // the store's seg0 matrix and paths
+    const s = this.seg;
+    const seg = this.app.info.keys > 2 ? `segment ${s} (key${s} to key${s + 1})\n` : '';
     el.textContent = `${seg}cost: chosen ${chosen.cost.toFixed(4)}, diagonal ${P.diagonal.cost.toFixed(4)}\n`
       + `abrupt: ${abrupt.length ? abrupt.join(', ') : 'none'}`;
     el.dataset.abrupt = String(abrupt.length);
@@ -202,7 +231,7 @@ export class ResultsView {
     const r = this.matrixCanvas.getBoundingClientRect();
     const { s, ox } = this._matrixLayout();
     const t = Math.floor(((e.clientX - r.left - ox) / s - PAD) / (THUMB + PAD));
-    if (t >= 0 && t < this.frames.length) this.show(t);
+    if (t >= 0 && t < this.paths.times.length) this.show(this._segStart() + t);
   }
 
   /** The stage menu of the previews, for the graph of the shot's keys. */
