@@ -7,6 +7,7 @@ import { V2, keyCount, keyFramesOf } from './skeleton.js';
 
 const EASES = ['linear', 'in', 'out', 'in-out'];  // ops/types.py EASES
 const EDGE_PX = 34;  // the first and the last key's thumbnails stay inside the strip
+const DRAG_PX = 4;   // a press on a key that moves less than this is a click (select)
 const $ = (id) => document.getElementById(id);
 
 /** Output frame of each key: v2 key_frames; v1 0 and the last output frame (frames, else one per pose). */
@@ -61,13 +62,46 @@ export class Timeline {
     return Math.max(last, kf[kf.length - 1]) + 8;
   }
 
+  /** Drag key i's thumbnail along the strip to move it in time (released: one move edit); key0 stays. */
+  _press(e, i, btn, kf, last) {
+    if (i === 0 || e.button !== 0) return;
+    const box = this.track.getBoundingClientRect();
+    const lo = kf[i - 1] + 1, hi = i + 1 < kf.length ? kf[i + 1] - 1 : 999;  // ops/shotio/load.py MAX_FRAMES - 1
+    const frameAt = (x) => Math.min(hi, Math.max(lo, Math.round(((x - box.left - EDGE_PX) / (box.width - 2 * EDGE_PX)) * last)));
+    const x0 = e.clientX;
+    let frame = kf[i];
+    btn.setPointerCapture(e.pointerId);
+    const move = (ev) => {
+      if (!this.dragging && Math.abs(ev.clientX - x0) < DRAG_PX) return;
+      this.dragging = true;
+      frame = frameAt(ev.clientX);
+      btn.style.left = this._at(frame, last);
+      btn.querySelector('span').textContent = `key${i} → ${frame}`;
+    };
+    const up = () => {
+      btn.removeEventListener('pointermove', move);
+      btn.removeEventListener('pointerup', up);
+      btn.removeEventListener('pointercancel', up);
+      const dragged = this.dragging;
+      this.dragging = false;
+      if (dragged && frame !== kf[i]) this.app.moveKey(i, frame);
+      else if (dragged) this.render();
+    };
+    btn.addEventListener('pointermove', move);
+    btn.addEventListener('pointerup', up);
+    btn.addEventListener('pointercancel', up);
+  }
+
+  _at(f, last) { return `calc(${EDGE_PX}px + (100% - ${2 * EDGE_PX}px) * ${f / last})`; }
+
   render() {
+    if (this.dragging) return;  // a key is being dragged: its place is the pointer's
     const shot = this.app.doc.shot;
     const kf = keyFrames(shot);
     const n = kf.length;
     const last = Math.max(1, lastFrame(shot));
     const v2 = shot.format === V2;
-    const at = (f) => `calc(${EDGE_PX}px + (100% - ${2 * EDGE_PX}px) * ${Math.min(1, f / last)})`;
+    const at = (f) => this._at(Math.min(last, f), last);
     const k = this.app.focusedKey;
     const shown = this.app.shownKeys();
     const items = [];
@@ -108,12 +142,13 @@ export class Timeline {
       btn.dataset.k = String(i);
       btn.dataset.frame = String(f);
       btn.style.left = at(f);
-      btn.title = `key${i}: ${shot.keyframes?.[i] ?? '?'} at frame ${f}`;
+      btn.title = `key${i}: ${shot.keyframes?.[i] ?? '?'} at frame ${f}${i ? ' (drag to move it in time)' : ''}`;
       const img = this._thumb(i);
       const label = document.createElement('span');
       label.textContent = `key${i} · ${f}`;
       btn.append(img, label);
       btn.addEventListener('click', () => this.app.focusKey(i));
+      btn.addEventListener('pointerdown', (e) => this._press(e, i, btn, kf, last));
       items.push(btn);
     });
     this.track.replaceChildren(...items);
