@@ -42,6 +42,7 @@ from . import params
 from .jointcheck import check_key_joints, mask_inside
 from .layers import refined_json
 from .maskfiles import check_name, decode_mask, encode_mask
+from .motion import v2_motion
 from .repose import png_bytes
 from .shotfile import keyframe_names, referenced_files, save, validate, write_atomic
 from .stage_warnings import stage_warnings
@@ -490,7 +491,9 @@ async def refined_png(request: Request) -> Response:
 @handler
 async def motion(request: Request) -> Response:
     """Poses at times: body {"shot": shot.json object (default: the saved one), "times": [t, ...] (default:
-    the output times)} -> {"times", "poses" (T, J, 3), "given_times"}; interpolated per bone like the loader."""
+    the output times)} -> {"times", "poses" (T, J, 3), "given_times"}; interpolated per bone like the loader.
+    A v2 shot's times are output frames (rounded to whole ones, the loader's motion there), and the answer
+    adds its "key_frames"."""
     ed = _ed(request)
     body = await params.json_body(request, default={})
     shot = body.get("shot")
@@ -503,6 +506,11 @@ async def motion(request: Request) -> Response:
     def work():
         data = shot or _saved(ed)
         file = ed.shot_dir / "shot.json"
+        if data.get("format") == FORMAT_V2:
+            knots, _, kf, poses = v2_motion(data, file)
+            at = np.arange(len(poses)) if times is None else np.clip(np.rint(times), 0, len(poses) - 1).astype(int)
+            return JSONResponse({"times": at.tolist(), "poses": np.round(poses[at], 4).tolist(),
+                                 "given_times": knots.tolist(), "key_frames": list(kf)})
         skeleton = parse_skeleton(data, file)
         given_t, given = parse_poses(data, file, skeleton)
         frames = data.get("frames")
@@ -519,15 +527,24 @@ async def motion(request: Request) -> Response:
 
 @handler
 async def repose(request: Request) -> Response:
-    """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1), "settle":
-    bool (false while a drag goes on: a bounded solve), "format": "png" | "rgba"} -> keyframe k's textured
-    template deformed into that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers;
-    the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
+    """Body {"k": key, "seg": segment (default 0), "t": the segment's time in [0, 1], "joints": [[x, y, z], ...],
+    "scale": display px per pixel (<= 1), "settle": bool (false while a drag goes on: a bounded solve), "format":
+    "png" | "rgba"} -> keyframe k's textured template of segment seg (k is one of its two keys) deformed into
+    that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers; the page's choice, no
+    encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
     ed = _ed(request)
     body = await params.json_body(request)
-    k = body.get("k", 0)
-    if not isinstance(k, int) or isinstance(k, bool) or k not in (0, 1):
-        raise ShotError(params.where(request), "k", f"{json.dumps(k)[:40]} is not a keyframe", "give k as 0 or 1")
+    n_keys = await run_in_threadpool(lambda: _n_keys(_saved(ed)))
+    seg = body.get("seg", 0)
+    n_seg = max(1, n_keys - 1)
+    if not isinstance(seg, int) or isinstance(seg, bool) or not 0 <= seg < n_seg:
+        raise ShotError(params.where(request), "seg", f"{json.dumps(seg)[:40]} is not a segment",
+                        f"give seg from 0 to {n_seg - 1}")
+    keys = (0,) if n_keys == 1 else (seg, seg + 1)
+    k = body.get("k", keys[0])
+    if not isinstance(k, int) or isinstance(k, bool) or k not in keys:
+        raise ShotError(params.where(request), "k", f"{json.dumps(k)[:40]} is not a keyframe of segment {seg}",
+                        f"give k as {' or '.join(map(str, keys))}")
     t = params.number(request, "t", body.get("t", 0.5), 0.0, 1.0)
     if "joints" not in body:
         raise ShotError(params.where(request), "joints", "is missing", "send one [x, y, z] per joint")
@@ -537,9 +554,9 @@ async def repose(request: Request) -> Response:
     fmt = params.choice(request, "format", body.get("format", "png"), ("png", "rgba"))
 
     def work():
-        reposer = ed.reposers.get(k)
+        reposer = ed.reposers.get(k, seg)
         if reposer is None:
-            return _error(f"seg0/key{k}/textured_template has not been computed yet; run the shot first", 409)
+            return _error(f"seg{seg}/key{k}/textured_template has not been computed yet; run the shot first", 409)
         if len(pose) != reposer.textured.template.handle_weights.shape[1]:
             return _error("the skeleton changed since the template was built; save and rerun first", 409)
         res = reposer.update(pose, t, scale, settle=settle)
