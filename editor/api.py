@@ -310,6 +310,10 @@ async def add_key(request: Request) -> Response:
     raw_name = request.query_params.get("name")
     if not raw_name:
         raise ShotError(params.where(request), "name", "is missing", "give the image file's name as ?name=FILE.png")
+    declared = request.headers.get("content-length", "")
+    if declared.isdecimal() and int(declared) > MAX_UPLOAD_BYTES:  # refused before it is read into memory
+        raise ShotError(params.where(request), "body", f"is {declared} bytes, more than {MAX_UPLOAD_BYTES}",
+                        "upload a smaller image file")
     body = await request.body()
     if not body:
         raise ShotError(params.where(request), "body", "is empty", "send the image file as the request body")

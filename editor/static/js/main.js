@@ -142,9 +142,6 @@ class App {
 
   shownKeys() { return this.keys.filter((v) => !v.pane.hidden).map((v) => v.k); }
 
-  /** The KeyView showing keyframe k, or null. */
-  viewOf(k) { return this.keys.find((v) => !v.pane.hidden && v.k === k) || null; }
-
   /** Output frame of key k (v1: 0 and the last output frame). */
   keyFrame(k) { return keyFrames(this.doc.shot)[k] ?? '?'; }
 
