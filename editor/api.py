@@ -24,15 +24,27 @@ from ops.errors import ShotError
 from ops.preview import to_png_bytes
 from ops.shotio.image_io import image_size, read_image, to_rgba
 from ops.shotio.interpolate import resample_poses
-from ops.shotio.load import MAX_FRAMES, MAX_JOINTS, load_shot, parse_poses, parse_skeleton, read_shot_json
+from ops.shotio.load import (
+    FORMAT_V2,
+    IMAGE_SUFFIXES,
+    MAX_FRAMES,
+    MAX_JOINTS,
+    MAX_KEYS,
+    load_shot,
+    parse_poses,
+    parse_skeleton,
+    read_shot_json,
+)
 from ops.skeleton.templates import TEMPLATES
 
+from . import keys as key_edits
 from . import params
 from .jointcheck import check_key_joints, mask_inside
 from .layers import refined_json
 from .maskfiles import check_name, decode_mask, encode_mask
+from .motion import v2_motion
 from .repose import png_bytes
-from .shotfile import keyframe_names, referenced_files, save, validate
+from .shotfile import keyframe_names, referenced_files, save, validate, write_atomic
 from .stage_warnings import stage_warnings
 from .state import EditorState
 
@@ -76,9 +88,16 @@ def _saved(ed: EditorState) -> dict:
     return read_shot_json(ed.shot_dir)[1]
 
 
+def _n_keys(data: dict) -> int:
+    """Keys of a shot.json object as the graph counts them: v1 two, v2 its keyframes (1..MAX_KEYS)."""
+    if data.get("format") != FORMAT_V2:
+        return 2
+    return min(MAX_KEYS, max(1, len(keyframe_names(data))))
+
+
 def _key(request: Request, ed: EditorState) -> int:
-    """Path parameter k: a keyframe of the saved shot (at least the two of format v1)."""
-    return params.path_int(request, "k", 0, max(2, len(keyframe_names(_saved(ed)))) - 1)
+    """Path parameter k: a keyframe of the saved shot (the two of format v1)."""
+    return params.path_int(request, "k", 0, _n_keys(_saved(ed)) - 1)
 
 
 def _layer(request: Request) -> tuple[str, int | None]:
@@ -113,9 +132,13 @@ async def info(request: Request) -> Response:
             size = list(_size(ed))
         except ShotError:
             size = None
-        graph = shot_graph(2)  # the editor edits two-key shots (v2's timeline of keys comes with the editor's)
+        try:
+            n_keys = _n_keys(_saved(ed))
+        except ShotError:
+            n_keys = 2
+        graph = shot_graph(n_keys)
         return JSONResponse({"shot_dir": str(ed.shot_dir), "partition": ed.partition, "size": size,
-                             "out_dir": str(ed.reruns.out_dir), "stages": list(graph.stages),
+                             "out_dir": str(ed.reruns.out_dir), "keys": n_keys, "stages": list(graph.stages),
                              "parents": {n: list(p) for n, p in graph.parents.items()}, "sources": list(graph.sources)})
 
     return await _call(work)
@@ -124,6 +147,16 @@ async def info(request: Request) -> Response:
 def _etag(ed: EditorState) -> str:
     """Version of shot.json on disk: a PUT carrying another one (If-Match) would overwrite someone else's edit."""
     return '"' + hashlib.sha256((ed.shot_dir / "shot.json").read_bytes()).hexdigest()[:20] + '"'
+
+
+def _changed_on_disk(request: Request, ed: EditorState) -> bool:
+    expected = request.headers.get("if-match")
+    return expected is not None and expected != _etag(ed)
+
+
+def _changed_error(ed: EditorState) -> JSONResponse:
+    return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
+                  "fix: reload the page (saving would overwrite that change)", 409)
 
 
 @handler
@@ -160,10 +193,8 @@ async def put_shot(request: Request) -> Response:
 
     def work():
         with ed.save_lock:
-            expected = request.headers.get("if-match")
-            if expected is not None and expected != _etag(ed):
-                return _error(f"{ed.shot_dir / 'shot.json'}: shot.json: changed on disk since the editor loaded it; "
-                              "fix: reload the page (saving would overwrite that change)", 409)
+            if _changed_on_disk(request, ed):
+                return _changed_error(ed)
             try:
                 before = _saved(ed)
             except ShotError:
@@ -243,6 +274,105 @@ async def templates(request: Request) -> Response:
     """The skeleton templates a skeleton can start from: {name: {"joints", "parents", "positions"}}, positions
     (u, v) in the unit box of the box the user drags (ops/skeleton/templates.py)."""
     return JSONResponse({name: t.to_json() for name, t in TEMPLATES.items()})
+
+
+# ---------------------------------------------------------------- the timeline of keys (editor/keys.py)
+
+MAX_UPLOAD_BYTES = 256 * 2**20  # a keyframe of MAX_SIDE px per side as 16-bit RGBA TIFF is about 200 MB
+
+
+def _structural(request: Request, ed: EditorState, edit, new_files: dict[str, bytes] | None = None) -> Response:
+    """Apply `edit(saved shot.json object, file) -> (object, extra answer fields)` to the saved shot, validate
+    the result as the CLI would (with `new_files` in place), write the new files and shot.json, queue the rerun.
+    Nothing is written when the edit or the validation refuses."""
+    with ed.save_lock:
+        if _changed_on_disk(request, ed):
+            return _changed_error(ed)
+        file, before = read_shot_json(ed.shot_dir)
+        data, extra = edit(before, file)
+        validate(ed.shot_dir, data, {}, ed.scratch, new_files=new_files)
+        for rel, content in (new_files or {}).items():
+            write_atomic(ed.shot_dir / rel, content)
+        save(ed.shot_dir, data, {})
+        ed.reruns.request("timeline")  # from here on /api/status reports this edit's rerun
+        return JSONResponse({"ok": True, "keys": len(data["keyframes"]), "format": data["format"], **extra},
+                            headers={"ETag": _etag(ed)})
+
+
+@handler
+async def add_key(request: Request) -> Response:
+    """Query frame (the output frame) and name (the file's name), body the image file: a key there, the file
+    copied into the shot folder under a free name. {"ok", "k" (the new key's index), "name", "keys"}."""
+    ed = _ed(request)
+    if "frame" not in request.query_params:
+        raise ShotError(params.where(request), "frame", "is missing", "give the new key's output frame as ?frame=N")
+    frame = params.query_int(request, "frame", 0, 0, MAX_FRAMES - 1)
+    raw_name = request.query_params.get("name")
+    if not raw_name:
+        raise ShotError(params.where(request), "name", "is missing", "give the image file's name as ?name=FILE.png")
+    declared = request.headers.get("content-length", "")
+    if declared.isdecimal() and int(declared) > MAX_UPLOAD_BYTES:  # refused before it is read into memory
+        raise ShotError(params.where(request), "body", f"is {declared} bytes, more than {MAX_UPLOAD_BYTES}",
+                        "upload a smaller image file")
+    body = await request.body()
+    if not body:
+        raise ShotError(params.where(request), "body", "is empty", "send the image file as the request body")
+    if len(body) > MAX_UPLOAD_BYTES:
+        raise ShotError(params.where(request), "body", f"is {len(body)} bytes, more than {MAX_UPLOAD_BYTES}",
+                        "upload a smaller image file")
+
+    def work():
+        file, saved = read_shot_json(ed.shot_dir)
+        taken = set(keyframe_names(saved)) | set(referenced_files(saved)) | {p.name for p in ed.shot_dir.iterdir()}
+        name = key_edits.upload_name(raw_name, taken, IMAGE_SUFFIXES, file)
+        motion = load_shot(ed.shot_dir).poses  # (F, J, 3): the new key's pose starts from the motion there
+
+        def edit(data, file):
+            out, k = key_edits.add_key(data, file, name, frame, motion)
+            return out, {"k": k, "name": name}
+
+        return _structural(request, ed, edit, {name: body})
+
+    return await _call(work)
+
+
+@handler
+async def remove_key(request: Request) -> Response:
+    """Remove key k (its image file stays in the folder); refuses the last key. {"ok", "keys", "dropped"}."""
+    ed = _ed(request)
+
+    def work():
+        k = _key(request, ed)
+
+        def edit(data, file):
+            out, dropped = key_edits.remove_key(data, file, k)
+            return out, {"dropped": dropped}
+
+        return _structural(request, ed, edit)
+
+    return await _call(work)
+
+
+@handler
+async def move_key(request: Request) -> Response:
+    """Body {"frame": N}: key k at output frame N, its pose with it. {"ok", "k", "keys", "dropped"}."""
+    ed = _ed(request)
+    body = await params.json_body(request)
+    frame = body.get("frame")
+    if not isinstance(frame, int) or isinstance(frame, bool) or not 0 <= frame < MAX_FRAMES:
+        raise ShotError(params.where(request), "frame", f"{json.dumps(frame)[:40]} is not a frame",
+                        f"give frame as an integer from 0 to {MAX_FRAMES - 1}")
+
+    def work():
+        k = _key(request, ed)
+
+        def edit(data, file):
+            out, dropped = key_edits.move_key(data, file, k, frame)
+            return out, {"k": k, "dropped": dropped}
+
+        return _structural(request, ed, edit)
+
+    return await _call(work)
 
 
 # ---------------------------------------------------------------- images and masks
@@ -365,7 +495,9 @@ async def refined_png(request: Request) -> Response:
 @handler
 async def motion(request: Request) -> Response:
     """Poses at times: body {"shot": shot.json object (default: the saved one), "times": [t, ...] (default:
-    the output times)} -> {"times", "poses" (T, J, 3), "given_times"}; interpolated per bone like the loader."""
+    the output times)} -> {"times", "poses" (T, J, 3), "given_times"}; interpolated per bone like the loader.
+    A v2 shot's times are output frames (rounded to whole ones, the loader's motion there), and the answer
+    adds its "key_frames"."""
     ed = _ed(request)
     body = await params.json_body(request, default={})
     shot = body.get("shot")
@@ -378,6 +510,11 @@ async def motion(request: Request) -> Response:
     def work():
         data = shot or _saved(ed)
         file = ed.shot_dir / "shot.json"
+        if data.get("format") == FORMAT_V2:
+            knots, _, kf, poses = v2_motion(data, file)
+            at = np.arange(len(poses)) if times is None else np.clip(np.rint(times), 0, len(poses) - 1).astype(int)
+            return JSONResponse({"times": at.tolist(), "poses": np.round(poses[at], 4).tolist(),
+                                 "given_times": knots.tolist(), "key_frames": list(kf)})
         skeleton = parse_skeleton(data, file)
         given_t, given = parse_poses(data, file, skeleton)
         frames = data.get("frames")
@@ -394,15 +531,24 @@ async def motion(request: Request) -> Response:
 
 @handler
 async def repose(request: Request) -> Response:
-    """Body {"k": 0|1, "t": float, "joints": [[x, y, z], ...], "scale": display px per pixel (<= 1), "settle":
-    bool (false while a drag goes on: a bounded solve), "format": "png" | "rgba"} -> keyframe k's textured
-    template deformed into that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers;
-    the page's choice, no encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
+    """Body {"k": key, "seg": segment (default 0), "t": the segment's time in [0, 1], "joints": [[x, y, z], ...],
+    "scale": display px per pixel (<= 1), "settle": bool (false while a drag goes on: a bounded solve), "format":
+    "png" | "rgba"} -> keyframe k's textured template of segment seg (k is one of its two keys) deformed into
+    that pose, over white: a PNG, or raw 8-bit RGBA rows (X-Width, X-Height headers; the page's choice, no
+    encoding). Timings in X-Solve-Ms, X-Render-Ms, X-Iterations, X-Cpu-Ms."""
     ed = _ed(request)
     body = await params.json_body(request)
-    k = body.get("k", 0)
-    if not isinstance(k, int) or isinstance(k, bool) or k not in (0, 1):
-        raise ShotError(params.where(request), "k", f"{json.dumps(k)[:40]} is not a keyframe", "give k as 0 or 1")
+    n_keys = await run_in_threadpool(lambda: _n_keys(_saved(ed)))
+    seg = body.get("seg", 0)
+    n_seg = max(1, n_keys - 1)
+    if not isinstance(seg, int) or isinstance(seg, bool) or not 0 <= seg < n_seg:
+        raise ShotError(params.where(request), "seg", f"{json.dumps(seg)[:40]} is not a segment",
+                        f"give seg from 0 to {n_seg - 1}")
+    keys = (0,) if n_keys == 1 else (seg, seg + 1)
+    k = body.get("k", keys[0])
+    if not isinstance(k, int) or isinstance(k, bool) or k not in keys:
+        raise ShotError(params.where(request), "k", f"{json.dumps(k)[:40]} is not a keyframe of segment {seg}",
+                        f"give k as {' or '.join(map(str, keys))}")
     t = params.number(request, "t", body.get("t", 0.5), 0.0, 1.0)
     if "joints" not in body:
         raise ShotError(params.where(request), "joints", "is missing", "send one [x, y, z] per joint")
@@ -412,9 +558,9 @@ async def repose(request: Request) -> Response:
     fmt = params.choice(request, "format", body.get("format", "png"), ("png", "rgba"))
 
     def work():
-        reposer = ed.reposers.get(k)
+        reposer = ed.reposers.get(k, seg)
         if reposer is None:
-            return _error(f"seg0/key{k}/textured_template has not been computed yet; run the shot first", 409)
+            return _error(f"seg{seg}/key{k}/textured_template has not been computed yet; run the shot first", 409)
         if len(pose) != reposer.textured.template.handle_weights.shape[1]:
             return _error("the skeleton changed since the template was built; save and rerun first", 409)
         res = reposer.update(pose, t, scale, settle=settle)
@@ -443,20 +589,37 @@ async def frame_png(request: Request) -> Response:
     return _png(await run_in_threadpool(_ed(request).results.frame_png, i), f"frame {i}")
 
 
+def _segment(request: Request, ed: EditorState) -> int:
+    """Query parameter seg: a segment (k, k + 1) of the saved shot (default 0)."""
+    return params.query_int(request, "seg", 0, 0, max(1, _n_keys(_saved(ed)) - 1) - 1)
+
+
+@handler
 async def matrix(request: Request) -> Response:
-    got = await run_in_threadpool(_ed(request).results.paths_info)
+    ed = _ed(request)
+    got = await run_in_threadpool(lambda: ed.results.paths_info(_segment(request, ed)))
     return JSONResponse(got, headers=NO_STORE) if got else _error("no image matrix yet; save or run", 404)
 
 
 @handler
 async def matrix_png(request: Request) -> Response:
+    ed = _ed(request)
     thumb = params.query_int(request, "thumb", 64, 16, 256)
-    return _png(await run_in_threadpool(_ed(request).results.matrix_png, thumb), "image matrix")
+    return _png(await run_in_threadpool(lambda: ed.results.matrix_png(thumb, _segment(request, ed))), "image matrix")
+
+
+def _graph(ed: EditorState):
+    """The stage graph of the saved shot (two keys while shot.json cannot be read)."""
+    try:
+        return shot_graph(_n_keys(_saved(ed)))
+    except ShotError:
+        return shot_graph(2)
 
 
 async def previews(request: Request) -> Response:
     ed = _ed(request)
-    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in shot_graph(2).stages],
+    stages = (await run_in_threadpool(_graph, ed)).stages
+    return JSONResponse([{"stage": n, "available": ed.store.preview_path(n, ed.partition).is_file()} for n in stages],
                         headers=NO_STORE)
 
 
@@ -464,7 +627,7 @@ async def previews(request: Request) -> Response:
 async def preview_png(request: Request) -> Response:
     ed = _ed(request)
     stage = params.choice(request, "stage", request.path_params["stage"].removesuffix(".png"),
-                          tuple(shot_graph(2).stages))
+                          tuple((await run_in_threadpool(_graph, ed)).stages))
     path: Path = ed.store.preview_path(stage, ed.partition)
     return _png(path.read_bytes() if path.is_file() else None, f"preview of {stage}")
 
@@ -486,6 +649,9 @@ ROUTES = [
     Route("/api/plan", get_plan),
     Route("/api/warnings", get_warnings),
     Route("/api/templates", templates),
+    Route("/api/keys", add_key, methods=["POST"]),
+    Route("/api/keys/{k}", remove_key, methods=["DELETE"]),
+    Route("/api/keys/{k}/move", move_key, methods=["POST"]),
     Route("/api/keyframes/{k}.png", keyframe),
     Route("/api/masks/{name:path}", get_mask, methods=["GET"]),
     Route("/api/masks/{name:path}", put_mask, methods=["PUT"]),

@@ -113,26 +113,26 @@ def png_bytes(rgba: np.ndarray) -> bytes:
 
 
 class Reposers:
-    """The reposer of each keyframe, rebuilt when the stored textured template changes."""
+    """The reposer of each keyframe in each of its segments, rebuilt when the stored textured template changes."""
 
     def __init__(self, store: Store, partition: str, mu: float, grad_tol: float):
         self.store, self.partition, self.mu, self.grad_tol = store, partition, mu, grad_tol
-        self._cache: dict[int, tuple[str, Reposer]] = {}
+        self._cache: dict[tuple[int, int], tuple[str, Reposer]] = {}
         self._lock = threading.Lock()
 
-    def get(self, k: int) -> Reposer | None:
-        """Reposer of keyframe k, or None while its textured template has not been computed."""
-        name = f"seg0/key{k}/textured_template"
+    def get(self, k: int, seg: int = 0) -> Reposer | None:
+        """Reposer of keyframe k in segment seg, or None while its textured template has not been computed."""
+        name = f"seg{seg}/key{k}/textured_template"
         version = self.store.hash(name, self.partition)
         if version is None:
             return None
         with self._lock:
-            cached = self._cache.get(k)
+            cached = self._cache.get((k, seg))
             if cached and cached[0] == version:
                 return cached[1]
             textured = self.store.read(name, self.partition)
-            seq_name = f"seg0/key{k}/deformed_frames"
+            seq_name = f"seg{seg}/key{k}/deformed_frames"
             seq = self.store.read(seq_name, self.partition) if self.store.hash(seq_name, self.partition) else None
             reposer = Reposer(textured, seq, self.mu, self.grad_tol)
-            self._cache[k] = (version, reposer)
+            self._cache[(k, seg)] = (version, reposer)
             return reposer

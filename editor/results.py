@@ -64,31 +64,33 @@ class Results:
                 return self._png[key]
         return self._remember(key, to_png_bytes(got[1].frames[i]))
 
-    def paths_info(self) -> dict | None:
-        """The optimal and diagonal paths through I(alpha, t): alpha index per time, costs, abrupt transitions."""
-        version = self.store.hash("seg0/optimal_path", self.partition)
+    def paths_info(self, seg: int = 0) -> dict | None:
+        """Segment seg's optimal and diagonal paths through I(alpha, t): alpha index per time (the segment's
+        local time, 0 at its first key), costs, abrupt transitions."""
+        version = self.store.hash(f"seg{seg}/optimal_path", self.partition)
         if version is None:
             return None
-        paths: BlendPaths = self.store.read("seg0/optimal_path", self.partition)
+        paths: BlendPaths = self.store.read(f"seg{seg}/optimal_path", self.partition)
 
         def path(p):
             return {"alpha_index": p.alpha_index.tolist(), "cost": float(p.cost),
                     "step_costs": p.step_costs.tolist(), "abrupt": p.abrupt.astype(bool).tolist()}
 
-        return {"version": version, "matrix_version": self.store.hash("seg0/rife_matrix", self.partition),
+        return {"version": version, "segment": seg, "matrix_version": self.store.hash(f"seg{seg}/rife_matrix", self.partition),
                 "times": paths.times.tolist(), "alphas": paths.alphas.tolist(),
                 "optimal": path(paths.optimal), "diagonal": path(paths.diagonal)}
 
-    def matrix_png(self, thumb: int) -> bytes | None:
-        """I(alpha, t) as a grid of thumb-px cells over white (columns = t, rows = alpha from 0 at the top)."""
-        version = self.store.hash("seg0/rife_matrix", self.partition)
+    def matrix_png(self, thumb: int, seg: int = 0) -> bytes | None:
+        """Segment seg's I(alpha, t) as a grid of thumb-px cells over white (columns = t, rows = alpha from 0 at
+        the top)."""
+        version = self.store.hash(f"seg{seg}/rife_matrix", self.partition)
         if version is None:
             return None
         key = ("matrix", version, thumb)
         with self._lock:
             if key in self._png:
                 return self._png[key]
-        matrix: ImageMatrix = self.store.read("seg0/rife_matrix", self.partition)
+        matrix: ImageMatrix = self.store.read(f"seg{seg}/rife_matrix", self.partition)
         return self._remember(key, to_png_bytes(matrix_grid(matrix.frames, thumb)))
 
 

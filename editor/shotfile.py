@@ -15,7 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ops.errors import ShotError
-from ops.shotio.load import load_shot
+from ops.shotio.load import FORMAT_V2, load_shot
 from ops.types import Shot
 
 BACKUP = "shot.json.bak"
@@ -61,12 +61,14 @@ def _link_or_copy(src, dst) -> None:
 
 
 def key_pose_indices(data) -> list[int]:
-    """Index into data["poses"] of each keyframe's pose: v1 the first and the last pose; with `key_frames`
-    (format v2) the pose at each key frame. Keys whose pose cannot be found are left out."""
+    """Index into data["poses"] of each keyframe's pose: v1 the first and the last pose; v2 the pose at each key
+    frame (`key_frames`, [0] when a one-drawing shot leaves it out). Keys whose pose cannot be found are left out."""
     poses = data.get("poses") if isinstance(data, dict) else None
     if not isinstance(poses, list) or not poses:
         return []
     key_frames = data.get("key_frames")
+    if not isinstance(key_frames, list) and data.get("format") == FORMAT_V2:
+        key_frames = [0]  # a one-drawing v2 shot may leave key_frames out
     if not isinstance(key_frames, list):
         return [0, len(poses) - 1] if len(poses) >= 2 else [0]
     frames = [p.get("frame") if isinstance(p, dict) else None for p in poses]
@@ -74,9 +76,10 @@ def key_pose_indices(data) -> list[int]:
 
 
 def validate(shot_dir: Path, data, staged: dict[str, bytes], scratch_root: Path,
-             check: Callable[[Shot, dict, Path], None] | None = None) -> Shot:
+             check: Callable[[Shot, dict, Path], None] | None = None, new_files: dict[str, bytes] | None = None) -> Shot:
     """Load the candidate shot.json `data` as the CLI would, with staged masks {relative name: PNG bytes}, then
     run `check(shot, data, file)` (the editor's own checks, editor/jointcheck.py) while the scratch copy exists.
+    `new_files` {relative name: bytes} are files the save would add (an uploaded keyframe), placed in the copy.
 
     Raises ShotError naming the real shot.json. Nothing under shot_dir is written.
     """
@@ -97,6 +100,11 @@ def validate(shot_dir: Path, data, staged: dict[str, bytes], scratch_root: Path,
                     target.write_bytes(staged[rel])
             elif src is not None and src.exists():
                 _mirror(src, scratch / src.relative_to(shot_dir))
+        for rel, content in (new_files or {}).items():
+            target = _inside(scratch, rel)
+            if target is not None:
+                target.parent.mkdir(parents=True, exist_ok=True)
+                target.write_bytes(content)
         (scratch / "shot.json").write_text(json.dumps(data))
         try:
             shot = load_shot(scratch)

@@ -10,6 +10,7 @@ import json
 import os
 import subprocess
 import sys
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +27,10 @@ from ..home import home, instance_id
 from ..provenance import StageStatus, resolve, to_run
 from ..resource_config import resource_config, resource_overrides
 from .logs import quiet_dagster_warnings
+
+# One thread of a process computes the facts at a time: the editor's server plans from several threads, and
+# two of them importing the definitions at once see a half-initialized module (and share the temp file name).
+_FACTS_LOCK = threading.Lock()
 
 
 def code_records() -> dict[str, dict[str, str]]:
@@ -46,6 +51,11 @@ def _definition_facts() -> dict:
     A process that imported the definitions before the sources changed on disk (a long-lived server)
     holds the old functions: it asks a fresh interpreter for the facts of the code as it is now.
     """
+    with _FACTS_LOCK:
+        return _definition_facts_locked()
+
+
+def _definition_facts_locked() -> dict:
     cache = home() / "code_records.json"
     fingerprint = project_fingerprint()
     try:

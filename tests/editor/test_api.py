@@ -187,7 +187,8 @@ def test_static_page_and_modules_are_served_without_a_cdn(serve, small_shot):
         assert src in html
         assert call(s.url + src.decode())[0] == 200
     js = b"".join(call(s.url + f"/static/js/{m}.js")[2] for m in
-                  ("main", "api", "doc", "keyview", "masks", "viewport", "results", "pose", "stages", "help"))
+                  ("main", "api", "doc", "keyview", "masks", "viewport", "results", "pose", "stages", "help",
+                                                  "skeleton", "timeline"))
     assert b"http://" not in js and b"https://" not in js
 
 

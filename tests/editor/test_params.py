@@ -11,6 +11,8 @@ from .conftest import call
 BAD = [  # (method, path, body, the parameter the error names)
     ("GET", "/api/matrix.png?thumb=abc", None, "thumb"),
     ("GET", "/api/matrix.png?thumb=9999", None, "thumb"),
+    ("GET", "/api/matrix.png?seg=1", None, "seg"),
+    ("GET", "/api/matrix?seg=x", None, "seg"),
     ("POST", "/api/motion", {"times": ["a"]}, "times"),
     ("POST", "/api/motion", {"times": 0.5}, "times"),
     ("POST", "/api/motion", {"shot": [1, 2]}, "shot"),
@@ -42,6 +44,16 @@ BAD = [  # (method, path, body, the parameter the error names)
     ("GET", "/api/previews/no_such_stage.png", None, "stage"),
     ("GET", "/api/masks/../escape.png", None, "mask name"),
     ("PUT", "/api/masks/key0.png", b"x", "mask name"),
+    ("POST", "/api/keys?name=a.png", b"x", "frame"),
+    ("POST", "/api/keys?frame=-3&name=a.png", b"x", "frame"),
+    ("POST", "/api/keys?frame=4000&name=a.png", b"x", "frame"),
+    ("POST", "/api/keys?frame=4", b"x", "name"),
+    ("POST", "/api/keys?frame=4&name=a.png", b"", "body"),
+    ("DELETE", "/api/keys/x", None, "k"),
+    ("DELETE", "/api/keys/2", None, "k"),
+    ("POST", "/api/keys/1/move", b"{not json", "body"),
+    ("POST", "/api/keys/1/move", {"frame": True}, "frame"),
+    ("POST", "/api/keys/one/move", {"frame": 3}, "k"),
 ]
 
 

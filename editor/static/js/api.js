@@ -36,6 +36,12 @@ export async function putVersioned(url, body, etag) {
   return res.headers.get('ETag');
 }
 
+/** Send a file's bytes as the body (only if the saved shot is still at version etag, when given). */
+export async function sendBytes(method, url, blob, etag = null) {
+  return answer(await fetch(url, { method, headers: { 'Content-Type': 'application/octet-stream', ...(etag ? { 'If-Match': etag } : {}) },
+    body: blob }));
+}
+
 export async function putPNG(url, blob) {
   return answer(await fetch(url, { method: 'PUT', headers: { 'Content-Type': 'image/png' }, body: blob }));
 }

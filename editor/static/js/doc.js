@@ -1,6 +1,6 @@
 // The edited shot: shot.json as an object, the mask layers of each keyframe, and undo/redo over both.
 
-import { keyPoseIndices } from './skeleton.js';
+import { keyCount, keyPoseIndices } from './skeleton.js';
 
 const clone = (x) => JSON.parse(JSON.stringify(x));
 
@@ -8,7 +8,7 @@ export class Doc {
   constructor(shot, size) {
     this.shot = shot;              // the shot.json object being edited (masks come from `structure` on save)
     this.size = size;              // [H, W] of the keyframes
-    this.structure = [{ fg: null, occ: [] }, { fg: null, occ: [] }];  // layer ids per keyframe
+    this.structure = Array.from({ length: keyCount(shot) }, () => ({ fg: null, occ: [] }));  // layer ids per keyframe
     this.layers = new Map();       // id -> MaskLayer (kept after removal, so undo can bring one back)
     this.fileOwner = new Map();    // mask file name -> id of the layer whose pixels the file holds
     this.saved = JSON.stringify(shot);
@@ -42,7 +42,13 @@ export class Doc {
     const used = new Set();
     for (const s of this.structure) for (const id of [s.fg, ...s.occ]) if (id && this.layer(id).name) used.add(this.layer(id).name);
     this.structure.forEach((s, k) => {
-      if (s.fg && !this.layer(s.fg).name) { this.layer(s.fg).name = `key${k}_fg.png`; used.add(`key${k}_fg.png`); }
+      if (s.fg && !this.layer(s.fg).name) {
+        // after keys were added or removed, key{k}_fg.png may be another key's file
+        let name = `key${k}_fg.png`;
+        for (let n = 2; used.has(name); n++) name = `key${k}_fg${n}.png`;
+        this.layer(s.fg).name = name;
+        used.add(name);
+      }
       for (const id of s.occ) {
         const layer = this.layer(id);
         if (layer.name) continue;
@@ -109,14 +115,16 @@ export class Doc {
     const changed = new Set();
     const skeleton = !eq(saved.skeleton, now.skeleton);
     const pose = (s, k) => s.poses?.[keyPoseIndices(s)[k]]?.joints ?? null;
-    for (const k of [0, 1]) {
+    for (let k = 0; k < this.structure.length; k++) {
       if (!eq(saved.t_junctions?.[k], now.t_junctions?.[k])) changed.add(`key${k}/t_junctions`);
       if (skeleton || !eq(pose(saved, k), pose(now, k))) changed.add(`key${k}/pose`);
       const masksOf = (s) => [s.masks?.foreground?.[k] ?? null, s.masks?.occlusion?.[k] ?? []];
       const pixels = [this.structure[k].fg, ...this.structure[k].occ].some((id) => id && this.layer(id).dirty);
       if (pixels || !eq(masksOf(saved), masksOf(now)) || !eq(saved.keyframes?.[k], now.keyframes?.[k])) changed.add(`key${k}/drawing`);
     }
-    if (skeleton || !eq(saved.poses, now.poses) || saved.frames !== now.frames) changed.add('motion');
+    if (skeleton || !eq(saved.poses, now.poses) || saved.frames !== now.frames || !eq(saved.ease, now.ease)) {
+      for (let s = 0; s < Math.max(1, this.structure.length - 1); s++) changed.add(`seg${s}/motion`);
+    }
     return changed;
   }
 

@@ -10,6 +10,8 @@ export const SHORTCUTS = [
   { keys: ['g'], label: 'G', action: 'tool-template', what: 'Template tool: drag a box around the character to place the chosen skeleton template' },
   { keys: ['['], label: '[  ]', action: 'brush-smaller', what: 'Brush smaller / larger' },
   { keys: [']'], label: null, action: 'brush-larger' },
+  { keys: [','], label: ',  .', action: 'key-prev', what: 'Select the previous / next key of the timeline' },
+  { keys: ['.'], label: null, action: 'key-next' },
   { keys: ['n'], label: 'N', action: 'new-region', what: 'New occlusion region on the focused keyframe' },
   { keys: ['Delete', 'Backspace'], label: 'Delete', action: 'delete', what: 'Delete the selected T-junction or joint (its children go to its parent)' },
   { keys: ['ArrowLeft', 'ArrowRight', 'ArrowUp', 'ArrowDown'], label: 'Arrows', action: 'nudge',

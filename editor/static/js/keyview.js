@@ -39,6 +39,17 @@ export class KeyView {
 
   get doc() { return this.app.doc; }
 
+  /** Show keyframe k in this pane (the timeline's selection and its neighbour). */
+  setKey(k) {
+    this.pane.querySelector('.keytitle').textContent = `key${k} · frame ${this.app.keyFrame(k)}`;
+    if (k === this.k) return;
+    this.k = k;
+    this.pane.dataset.k = String(k);
+    this.drag = null;
+    this.hover = null;
+    this.fitted = false;
+  }
+
   fit() {
     const [w, h] = fitCanvas(this.canvas);
     const [H, W] = this.doc.size;
@@ -50,6 +61,7 @@ export class KeyView {
   // ---------------------------------------------------------------- drawing
 
   draw() {
+    if (this.pane.hidden) return;
     const [cw, ch, dpr] = fitCanvas(this.canvas);
     if (!this.fitted && cw > 1) { this.fitted = true; const [H, W] = this.doc.size; this.view.fit(W, H, cw, ch); }
     const ctx = this.ctx;

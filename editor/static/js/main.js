@@ -1,7 +1,7 @@
 // The editor page: loads the shot, wires the three views, the rerun panel, undo/redo, saving and the keyboard;
 // the skeleton tools (editor/static/js/skeleton.js) and the stages' warnings at what they name.
 
-import { ApiError, getJSON, getVersioned, loadImage, putPNG, putVersioned, sendJSON } from './api.js';
+import { ApiError, getJSON, getVersioned, loadImage, putPNG, putVersioned, sendBytes, sendJSON } from './api.js';
 import { Doc, History } from './doc.js';
 import { actionFor, renderHelp } from './help.js';
 import { KeyView } from './keyview.js';
@@ -9,9 +9,10 @@ import { MaskLayer, layerFromUrl, regionColour, FOREGROUND_COLOUR } from './mask
 import { PoseView } from './pose.js';
 import { ResultsView } from './results.js';
 import {
-  SkeletonError, addJoint, applyTemplate, copyPose, deleteJoint, keyCount, keyPoseIndices, renameJoint, reparent,
+  SkeletonError, V2, addJoint, applyTemplate, copyPose, deleteJoint, keyCount, keyPoseIndices, renameJoint, reparent,
 } from './skeleton.js';
 import { StagesPanel, followStatus } from './stages.js';
+import { Timeline, keyFrames } from './timeline.js';
 
 const OVERLAYS = [
   ['drawing', 'Drawing', true], ['skeleton', 'Skeleton', true], ['tjunctions', 'T-junctions', true],
@@ -24,23 +25,11 @@ const $ = (id) => document.getElementById(id);
 class App {
   async boot() {
     this.info = await getJSON('/api/info');
-    const { data: shot, etag } = await getVersioned('/api/shot');
-    this.etag = etag;  // a save refuses to overwrite a shot.json changed on disk since
     $('shot-name').textContent = this.info.shot_dir;
-    // keyframes that cannot be read: the page still opens, with the loader's message at `keyframes`
-    this.doc = new Doc(shot, this.info.size || [256, 256]);
-    // an edit after a refused save clears its message: the user is fixing it (Save shows it again if not)
-    this.history = new History(this.doc, () => { if (this.errorItem) this.clearError(); this.changed(); });
     this.tool = 'select';
     this.brush = 8;
     this.overlays = new Set(OVERLAYS.filter((o) => o[2]).map((o) => o[0]));
-    this.activeLayer = [null, null];
-    this.focusedKey = 1;
-    this.selected = null;
     this.errorItem = null;
-    this.drawings = [null, null];
-    this.predicted = [null, null];
-    this.refined = [null, null];
     this.plan = null;
     this.status = null;
     this.warnings = [];
@@ -48,12 +37,11 @@ class App {
     this.template = null;
     this.stages = new StagesPanel(this.info);
     this.keys = [...document.querySelectorAll('.keypane')].map((pane) => new KeyView(+pane.dataset.k, pane, this));
+    await this._open(null);
     this.results = new ResultsView(this);
     this.pose = new PoseView(this);
+    this.timeline = new Timeline(this);
     this._wire();
-    await Promise.all([0, 1].map((k) => this._loadKey(k)));
-    await this._loadManualMasks();
-    this.activeLayer = [0, 1].map((k) => (this.doc.structure[k].occ.length ? 0 : 'fg'));
     this.changed();
     this.keys.forEach((v) => v.fit());
     followStatus((st) => this.onStatus(st));
@@ -120,6 +108,59 @@ class App {
 
   // ---------------------------------------------------------------- loading
 
+  /** Open the saved shot (at boot and after a structural edit): the document, its keys' layers, the panes
+   *  showing key k (null: the first two keys, key1 selected). */
+  async _open(k) {
+    const { data: shot, etag } = await getVersioned('/api/shot');
+    this.etag = etag;  // a save refuses to overwrite a shot.json changed on disk since
+    // keyframes that cannot be read: the page still opens, with the loader's message at `keyframes`
+    this.doc = new Doc(shot, this.info.size || [256, 256]);
+    // an edit after a refused save clears its message: the user is fixing it (Save shows it again if not)
+    this.history = new History(this.doc, () => { if (this.errorItem) this.clearError(); this.changed(); });
+    const n = keyCount(shot);
+    this.drawings = Array(n).fill(null);
+    this.predicted = Array(n).fill(null);
+    this.refined = Array(n).fill(null);
+    this.activeLayer = Array(n).fill('fg');  // until the manual masks are in
+    this.loading = new Map();  // key -> promise of its drawing and masks, loaded when first shown
+    this.selected = null;
+    $('mask-key').replaceChildren(...[...Array(n).keys()].map((i) => {
+      const o = document.createElement('option'); o.value = String(i); o.textContent = `key${i}`; return o;
+    }));
+    this.focusedKey = k === null ? Math.min(1, n - 1) : Math.max(0, Math.min(k, n - 1));
+    await Promise.all([this._showKeys(this._panesFor(k === null ? 0 : this.focusedKey)), this._loadManualMasks()]);
+    this.activeLayer = this.doc.structure.map((s) => (s.occ.length ? 0 : 'fg'));
+    this.focusKey(this.focusedKey);
+  }
+
+  /** The keys the two Annotate panes show for key k: k and the next (the last key: the previous and k). */
+  _panesFor(k) {
+    const n = keyCount(this.doc.shot);
+    if (n === 1) return [0];
+    return k >= n - 1 ? [n - 2, n - 1] : [k, k + 1];
+  }
+
+  shownKeys() { return this.keys.filter((v) => !v.pane.hidden).map((v) => v.k); }
+
+  /** Output frame of key k (v1: 0 and the last output frame). */
+  keyFrame(k) { return keyFrames(this.doc.shot)[k] ?? '?'; }
+
+  _showKeys(list) {
+    this.keys.forEach((v, i) => {
+      v.pane.hidden = list[i] === undefined;
+      if (list[i] !== undefined) v.setKey(list[i]);
+    });
+    if (this.selected && !list.includes(this.selected.k)) this.selected = null;
+    requestAnimationFrame(() => this.keys.forEach((v) => { if (!v.pane.hidden && !v.fitted) v.fit(); }));
+    return Promise.all(list.map((k) => this._ensureKey(k)));
+  }
+
+  /** Keyframe k's drawing, predicted and refined masks, loaded once (until a rerun ends). */
+  _ensureKey(k) {
+    if (!this.loading.has(k)) this.loading.set(k, this._loadKey(k).then(() => { this.redraw(); this._layers(); }));
+    return this.loading.get(k);
+  }
+
   async _loadKey(k) {
     this.drawings[k] = await loadImage(`/api/keyframes/${k}.png?v=${Date.now()}`).catch(() => null);
     await Promise.all([this._loadPredicted(k), this._loadRefined(k)]);
@@ -163,7 +204,7 @@ class App {
       }
       return this.doc.addLayer(layer);
     };
-    for (const k of [0, 1]) {
+    for (let k = 0; k < this.doc.structure.length; k++) {
       const fg = masks.foreground?.[k];
       this.doc.structure[k].fg = fg ? await load(fg) : null;
       this.doc.structure[k].occ = await Promise.all((masks.occlusion?.[k] || []).map(load));
@@ -186,6 +227,7 @@ class App {
     this._inspector();
     this._skeletonPanel();
     this._shotFields();
+    if (this.timeline) this.timeline.render();
   }
 
   redraw() { this.keys.forEach((v) => v.draw()); }
@@ -203,11 +245,62 @@ class App {
     this.redraw();
   }
 
+  /** Select keyframe k (the timeline, a click on its pane, the Masks menu): the panes show it. */
   focusKey(k) {
+    if (!this.shownKeys().includes(k)) { this._showKeys(this._panesFor(k)); this.redraw(); }
     this.focusedKey = k;
-    document.querySelectorAll('.keypane').forEach((p) => p.classList.toggle('focus', +p.dataset.k === k));
+    document.querySelectorAll('.keypane').forEach((p) => p.classList.toggle('focus', !p.hidden && +p.dataset.k === k));
     if (+$('mask-key').value !== k) { $('mask-key').value = String(k); this._layers(); }
     this._skeletonPanel();
+    if (this.timeline) this.timeline.render();
+  }
+
+  // ---------------------------------------------------------------- the timeline's structural edits
+
+  /** A structural edit made by the server on the saved shot (edits in the page are saved first), then the
+   *  shot reopened at the key the answer names. `call(etag)` sends the request. */
+  async structural(what, call, keyAfter) {
+    if (this.doc.isDirty()) {
+      await this.save();
+      if (this.doc.isDirty()) return;  // the save was refused: its message shows
+    }
+    this.clearError();
+    try {
+      const got = await call(this.etag);
+      await this._reopen(got.k ?? keyAfter(got));
+      const dropped = got.dropped?.length ? ` (${got.dropped.join(', ')} dropped: its frames no longer line up)` : '';
+      this.flash(`${what}${dropped}; rerunning`);
+    } catch (e) {
+      if (e instanceof ApiError) this.showError(e.message, e.field);
+      else this.showError(`${what} failed: ${e.message}`, null);
+    }
+  }
+
+  async _reopen(k) {
+    this.info = await getJSON('/api/info');
+    this.stages.setGraph(this.info);
+    this.results.setGraph(this.info);
+    await this._open(k);
+    this.changed();
+    this.refreshPlan();
+    this.loadWarnings();
+  }
+
+  addKey(frame, file) {
+    if (!Number.isInteger(frame) || frame < 1) { this.flash('give the new key\'s frame, 1 or more'); return; }
+    const url = `/api/keys?frame=${frame}&name=${encodeURIComponent(file.name)}`;
+    return this.structural(`${file.name} added as a key at frame ${frame}`, (etag) => sendBytes('POST', url, file, etag));
+  }
+
+  removeKey(k) {
+    return this.structural(`key${k} removed (its file stays; shot.json.bak has the shot before)`,
+      (etag) => sendJSON('DELETE', `/api/keys/${k}`, {}, etag ? { 'If-Match': etag } : {}), () => Math.max(0, k - 1));
+  }
+
+  moveKey(k, frame) {
+    if (!Number.isInteger(frame)) { this.flash('a key\'s frame is a whole number'); this.timeline.render(); return; }
+    return this.structural(`key${k} moved to frame ${frame}`,
+      (etag) => sendJSON('POST', `/api/keys/${k}/move`, { frame }, etag ? { 'If-Match': etag } : {}));
   }
 
   /** Depth by wheel: consecutive notches on one joint make one undo step. */
@@ -453,11 +546,11 @@ class App {
     info.textContent = names.length
       ? `${names.length} joint${names.length === 1 ? '' : 's'}, root ${names[this.doc.parents().indexOf(-1)] ?? '?'}`
       : 'No skeleton yet: choose a template and drag its box around the character, or add joints with the Skeleton tool (J).';
-    const k = this.focusedKey, to = (k + 1) % keyCount(this.doc.shot);
+    const k = this.focusedKey, to = this.shownKeys().find((i) => i !== k);  // the other pane's key
     const copy = $('copy-pose');
-    copy.textContent = `Copy key${k}'s pose to key${to}`;
-    copy.dataset.from = String(k); copy.dataset.to = String(to);
-    copy.disabled = !this.doc.keyPose(k).length;
+    copy.textContent = to === undefined ? 'Copy pose (one key only)' : `Copy key${k}'s pose to key${to}`;
+    copy.dataset.from = String(k); copy.dataset.to = String(to ?? k);
+    copy.disabled = to === undefined || !this.doc.keyPose(k).length;
   }
 
   /** The shot-level fields (format, keyframes, frames): shown, `frames` editable. */
@@ -467,6 +560,7 @@ class App {
     $('set-format').hidden = shot.format === 'inbetween-shot/1' || shot.format === 'inbetween-shot/2';
     $('field-keyframes').textContent = Array.isArray(shot.keyframes) ? shot.keyframes.join(', ') : JSON.stringify(shot.keyframes ?? null);
     const frames = $('frames');
+    $('frames-row').hidden = shot.format === V2;  // v1 only: a v2 shot's frames follow its key frames
     if (document.activeElement !== frames) frames.value = Number.isInteger(shot.frames) ? String(shot.frames) : '';
     this._fieldAnchors();
   }
@@ -548,7 +642,8 @@ class App {
       this.plan = null;
       this.stages.setPlan(null);
       await this.refreshPlan();
-      await Promise.all([0, 1].map((k) => this._loadKey(k)));
+      this.loading = new Map();  // every key's stored masks may have changed: reload when shown
+      await Promise.all(this.shownKeys().map((k) => this._ensureKey(k)));
       await this.loadWarnings();
       await this.results.refresh();
       this.redraw();
@@ -570,13 +665,19 @@ class App {
     if (field && (m = field.match(/^poses\[(\d+)\]\.joints\[(\d+)\]/))) {
       const i = +m[1], j = +m[2];
       const k = keyPoseIndices(this.doc.shot).indexOf(i);  // a joint of a key pose: shown at it
-      if (k >= 0 && this.doc.shot.poses[i]?.joints?.[j]) Object.assign(this.errorItem, { k, kind: 'joint', pose: i, index: j });
+      if (k >= 0 && this.doc.shot.poses[i]?.joints?.[j]) {
+        Object.assign(this.errorItem, { k, kind: 'joint', pose: i, index: j });
+        this.focusKey(k);
+      }
       this._showView('annotate');
     } else if (field && (m = field.match(/^t_junctions\[(\d+)\]\[(\d+)\]/))) {
-      if (this.doc.shot.t_junctions?.[+m[1]]?.[+m[2]]) Object.assign(this.errorItem, { k: +m[1], kind: 'tj', index: +m[2] });
+      if (this.doc.shot.t_junctions?.[+m[1]]?.[+m[2]]) {
+        Object.assign(this.errorItem, { k: +m[1], kind: 'tj', index: +m[2] });
+        this.focusKey(+m[1]);
+      }
       this._showView('annotate');
-    } else if (field && (m = field.match(/^masks\.(?:foreground|occlusion)\[(\d)\]/))) {
-      $('mask-key').value = m[1];
+    } else if (field && (m = field.match(/^masks\.(?:foreground|occlusion)\[(\d+)\]/)) && +m[1] < this.doc.structure.length) {
+      this.focusKey(+m[1]);
       this._showView('annotate');
     }
     this._layers();
@@ -635,7 +736,7 @@ class App {
       l.append(box, ` ${label}`);
       return l;
     }));
-    $('mask-key').addEventListener('change', () => this._layers());
+    $('mask-key').addEventListener('change', () => { this.focusKey(+$('mask-key').value); this._layers(); });
     $('template').replaceChildren(...Object.keys(this.templates).map((n) => { const o = document.createElement('option'); o.value = o.textContent = n; return o; }));
     const pickTemplate = () => { this.template = { name: $('template').value, ...this.templates[$('template').value] }; };
     pickTemplate();
@@ -694,6 +795,8 @@ class App {
       'tool-skeleton': () => this.setTool('skeleton'), 'tool-template': () => this.setTool('template'),
       'brush-smaller': () => this.setBrush(this.brush - 2), 'brush-larger': () => this.setBrush(this.brush + 2),
       'new-region': () => this.newRegion(this.focusedKey),
+      'key-prev': () => { if (this.focusedKey > 0) this.focusKey(this.focusedKey - 1); },
+      'key-next': () => { if (this.focusedKey < keyCount(this.doc.shot) - 1) this.focusKey(this.focusedKey + 1); },
       delete: () => {
         const sel = this.selected;
         if (sel && sel.kind === 'joint') { this.removeJoint(sel.index); return; }

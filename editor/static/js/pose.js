@@ -2,6 +2,8 @@
 // "Add as pose at t" to put the dragged pose into the motion.
 
 import { ApiError, postForPixels, sendJSON } from './api.js';
+import { V2 } from './skeleton.js';
+import { keyFrames, lastFrame } from './timeline.js';
 import { Viewport, fitCanvas } from './viewport.js';
 
 const HIT_PX = 10;
@@ -36,12 +38,44 @@ export class PoseView {
     c.addEventListener('pointercancel', (e) => this._up(e));
   }
 
+  /** v2: the clock is the output frame (0 .. the last), the template a key of the frame's segment; v1: t in [0, 1]. */
+  get v2() { return this.app.doc.shot.format === V2; }
+
+  /** The segment the shown time lies in and its own time there: {seg, local, keys: [first, last key]}. */
+  get where() {
+    if (!this.v2) return { seg: 0, local: this.t, keys: [0, 1] };
+    const kf = keyFrames(this.app.doc.shot);
+    if (kf.length < 2) return { seg: 0, local: this.t / Math.max(1, lastFrame(this.app.doc.shot)), keys: [0, 0] };
+    let s = 0;
+    while (s < kf.length - 2 && this.t > kf[s + 1]) s++;
+    return { seg: s, local: (this.t - kf[s]) / (kf[s + 1] - kf[s]), keys: [s, s + 1] };
+  }
+
   get key() {
     const v = document.getElementById('pose-key').value;
-    return v === 'auto' ? (this.t < 0.5 ? 0 : 1) : +v;
+    const { local, keys } = this.where;
+    return v === 'auto' ? keys[local < 0.5 ? 0 : 1] : keys[+v];
+  }
+
+  /** The slider, the template menu and the "Add" button for the shot's clock. */
+  _clock() {
+    const last = this.v2 ? Math.max(1, lastFrame(this.app.doc.shot)) : 1;
+    for (const el of [this.slider, this.number]) {
+      el.min = '0'; el.max = String(last); el.step = this.v2 ? '1' : '0.005';
+    }
+    const { keys } = this.where;
+    const sel = document.getElementById('pose-key');
+    sel.options[1].textContent = this.v2 ? `key${keys[0]} (segment's first)` : 'key0';
+    sel.options[2].textContent = this.v2 ? `key${keys[1]} (its last)` : 'key1';
+    document.getElementById('pose-add').textContent = this.v2 ? 'Add as pose at this frame' : 'Add as pose at t';
+    return last;
   }
 
   async enter() {
+    const last = this._clock();
+    if (this.v2 && !Number.isInteger(this.t)) this.t = Math.floor(last / 2);  // from t in [0, 1] to frames
+    if (!this.v2 && this.t > 1) this.t = 0.5;
+    document.getElementById('pose-clock').textContent = this.v2 ? 'frame' : 't';
     try {
       await this._ticks();
       await this.setT(this.t);
@@ -57,30 +91,38 @@ export class PoseView {
 
   /** Show the pose at time t, interpolated per bone from the poses being edited (saved or not). */
   async setT(t) {
-    this.t = Math.min(1, Math.max(0, Math.round(t * 1000) / 1000));
+    const last = this._clock();
+    this.t = this.v2 ? Math.min(last, Math.max(0, Math.round(t))) : Math.min(1, Math.max(0, Math.round(t * 1000) / 1000));
     this.slider.value = this.number.value = String(this.t);
+    this._clock();  // the template menu names the keys of this frame's segment
     const got = await sendJSON('POST', '/api/motion', { shot: this.app.doc.toShot(), times: [this.t] });
     this.pose = got.poses[0];
-    document.getElementById('pose-add').disabled = this.t <= 0 || this.t >= 1;
+    const isKey = this.v2 ? keyFrames(this.app.doc.shot).includes(this.t) : this.t <= 0 || this.t >= 1;
+    document.getElementById('pose-add').disabled = isKey || (this.v2 && keyFrames(this.app.doc.shot).length === 1 && this.t >= last);
     this._list();
     this.render();
   }
 
   async _ticks() {
     const got = await sendJSON('POST', '/api/motion', { shot: this.app.doc.toShot() });
+    const span = this.v2 ? Math.max(1, got.times.length - 1) : 1;
     const ticks = document.getElementById('pose-ticks');
-    ticks.replaceChildren(...got.times.map((t) => { const s = document.createElement('span'); s.style.left = `${t * 100}%`; return s; }));
+    ticks.replaceChildren(...got.times.map((t) => { const s = document.createElement('span'); s.style.left = `${(t / span) * 100}%`; return s; }));
   }
 
   _list() {
     const ol = document.getElementById('pose-list');
     const poses = this.app.doc.shot.poses;
+    const clock = this.v2 ? 'frame' : 't';
+    const kf = this.v2 ? keyFrames(this.app.doc.shot) : null;
+    const keyOf = (p, i) => (this.v2 ? kf.indexOf(p.frame) : i === 0 ? 0 : i === poses.length - 1 ? 1 : -1);
     ol.replaceChildren(...poses.map((p, i) => {
       const li = document.createElement('li');
-      li.textContent = `t = ${(+p.t).toFixed(3)}${i === 0 ? ' (key0)' : i === poses.length - 1 ? ' (key1)' : ''} `;
-      if (Math.abs(p.t - this.t) < 1e-9) li.className = 'near';
-      li.addEventListener('click', () => this.setT(p.t));
-      if (i > 0 && i < poses.length - 1) {
+      const k = keyOf(p, i);
+      li.textContent = `${clock} = ${this.v2 ? +p.frame : (+p.t).toFixed(3)}${k >= 0 ? ` (key${k})` : ''} `;
+      if (Math.abs(p[clock] - this.t) < 1e-9) li.className = 'near';
+      li.addEventListener('click', () => this.setT(p[clock]));
+      if (k < 0) {
         const del = document.createElement('button');
         del.textContent = '×';
         del.title = 'remove this pose from the motion';
@@ -107,13 +149,14 @@ export class PoseView {
     this._fit();
     const t0 = performance.now();
     try {
+      const { seg, local } = this.where;
       const { bitmap, headers } = await postForPixels('/api/repose', {
-        k: this.key, t: this.t, joints: this.pose, scale: Math.min(1, this.view.zoom * dpr), settle,
+        k: this.key, seg, t: Math.min(1, Math.max(0, local)), joints: this.pose, scale: Math.min(1, this.view.zoom * dpr), settle,
       });
       this.image = bitmap;
       this.updates += 1;
       const ms = performance.now() - t0;
-      this.stats.textContent = `key${this.key} template · update ${ms.toFixed(0)} ms (solve ${headers.get('X-Solve-Ms')} ms, `
+      this.stats.textContent = `${this.v2 ? `seg${seg}/` : ''}key${this.key} template · update ${ms.toFixed(0)} ms (solve ${headers.get('X-Solve-Ms')} ms, `
         + `render ${headers.get('X-Render-Ms')} ms, ${headers.get('X-Iterations')} iterations)`;
       this.stats.dataset.updates = String(this.updates);
       this.stats.dataset.ms = ms.toFixed(1);
@@ -206,16 +249,18 @@ export class PoseView {
 
   /** Insert the shown pose into the motion at t (replacing a pose at the same t); save to rerun. */
   addPose() {
-    if (!this.pose || this.t <= 0 || this.t >= 1) return;
+    if (!this.pose || document.getElementById('pose-add').disabled) return;
     const t = this.t;
+    const clock = this.v2 ? 'frame' : 't';
     const joints = this.pose.map((j) => [round1(j[0]), round1(j[1]), +(+j[2]).toFixed(4)]);
-    this.app.edit(`add pose at t = ${t}`, () => {
+    this.app.edit(`add pose at ${clock} = ${t}`, () => {
       const poses = this.app.doc.shot.poses;
-      const same = poses.findIndex((p) => Math.abs(p.t - t) < 1e-9);
-      if (same >= 0) poses[same] = { t, joints };
-      else poses.splice(poses.findIndex((p) => p.t > t), 0, { t, joints });
+      const same = poses.findIndex((p) => Math.abs(p[clock] - t) < 1e-9);
+      const after = poses.findIndex((p) => p[clock] > t);
+      if (same >= 0) poses[same] = { [clock]: t, joints };
+      else poses.splice(after < 0 ? poses.length : after, 0, { [clock]: t, joints });
     });
-    this.app.flash(`pose added at t = ${t}; save to rerun`);
+    this.app.flash(`pose added at ${clock} = ${t}; save to rerun`);
     this._list();
     this._ticks();
   }

@@ -2,6 +2,7 @@
 // I(alpha, t) with the chosen and diagonal paths and the abrupt transitions, and any stage's preview.
 
 import { getJSON, loadImage } from './api.js';
+import { keyFrames } from './timeline.js';
 import { fitCanvas } from './viewport.js';
 
 const THUMB = 48;   // matrix cell size requested from the server, pixels
@@ -30,6 +31,7 @@ export class ResultsView {
     this.msg = document.getElementById('results-msg');
     this.info = null;
     this.paths = null;
+    this.seg = undefined;  // the segment whose matrix is shown (null: one drawing, none)
     this.frames = [];
     this.onion = [];
     this.matrixImg = null;
@@ -64,16 +66,41 @@ export class ResultsView {
     this.index = Math.min(this.index, frames.length - 1);
     this.scrub.value = String(this.index);
     this.badge.dataset.version = v;
-    try {
-      this.paths = await getJSON('/api/matrix');
-      this.matrixImg = await loadImage(`/api/matrix.png?thumb=${THUMB}&v=${this.paths.matrix_version}`);
-    } catch {
-      this.paths = null; this.matrixImg = null;
-    }
+    this.seg = undefined;  // the matrix of the current frame's segment is fetched again
+    await this._loadSegment(this._segmentOf(this.index));
     this.setStale(this.app.stale('inbetween_frames'));
     this.draw();
-    this._matrixInfo();
   }
+
+  /** The segment (k, k + 1) that output frame i lies in (a key's frame: the segment it ends), null for one drawing. */
+  _segmentOf(i) {
+    const kf = keyFrames(this.app.doc.shot);
+    if (kf.length < 2) return null;
+    for (let s = 0; s < kf.length - 2; s++) if (i <= kf[s + 1]) return s;
+    return kf.length - 2;
+  }
+
+  /** Segment s's image matrix and paths (its columns are output frames key_frames[s] ... key_frames[s + 1]). */
+  async _loadSegment(s) {
+    if (s === this.seg) return;
+    this.seg = s;
+    let paths = null, img = null;
+    if (s !== null) {
+      try {
+        paths = await getJSON(`/api/matrix?seg=${s}`);
+        img = await loadImage(`/api/matrix.png?thumb=${THUMB}&seg=${s}&v=${paths.matrix_version}`);
+      } catch {
+        paths = null; img = null;
+      }
+    }
+    if (this.seg !== s) return;  // another segment was asked for meanwhile
+    this.paths = paths; this.matrixImg = img;
+    this._matrixInfo();
+    this.draw();
+  }
+
+  /** Output frame of the current segment's first column. */
+  _segStart() { return this.seg === null ? 0 : keyFrames(this.app.doc.shot)[this.seg]; }
 
   setStale(stale) {
     this.badge.textContent = stale ? 'stale' : '';
@@ -85,6 +112,8 @@ export class ResultsView {
     if (!this.frames.length) return;
     this.index = (i + this.frames.length) % this.frames.length;
     this.scrub.value = String(this.index);
+    const s = this._segmentOf(this.index);
+    if (s !== this.seg) this._loadSegment(s);
     this.draw();
   }
 
@@ -119,10 +148,15 @@ export class ResultsView {
     }
     ctx.drawImage(f, x, y, w, h);
     const t = this.info.times[this.index], a = this.info.alphas[this.index];
-    this.label.textContent = `frame ${this.index} / ${this.frames.length - 1}   t = ${t.toFixed(3)}   alpha = ${a.toFixed(3)}`;
+    // v2 times are output frames; a key's frame shows its drawing (its segment's alpha 0 or 1)
+    const v2 = this.app.doc.shot.format === 'inbetween-shot/2';
+    const key = keyFrames(this.app.doc.shot).indexOf(this.index);
+    const where = `${v2 ? '' : `   t = ${t.toFixed(3)}`}${key >= 0 ? `   key${key}` : ''}`;
+    this.label.textContent = `frame ${this.index} / ${this.frames.length - 1}${where}   alpha = ${a.toFixed(3)}`;
+    this.label.dataset.frame = String(this.index);
     ctx.fillStyle = '#e4e6eb';
     ctx.font = '12px system-ui';
-    ctx.fillText(`frame ${this.index}   t = ${t.toFixed(3)}`, x, 16);
+    ctx.fillText(`frame ${this.index}${where}`, x, 16);
   }
 
   _matrixLayout() {
@@ -145,7 +179,7 @@ export class ResultsView {
     const centre = (t, a) => { const [x, y] = cell(t, a); return [ox + (x + THUMB / 2) * s, oy + (y + THUMB / 2) * s]; };
     const box = (t, a, inset) => { const [x, y] = cell(t, a); return [ox + x * s + inset, oy + y * s + inset, THUMB * s - 2 * inset, THUMB * s - 2 * inset]; };
     // current frame's column
-    const [cx] = cell(this.index, 0);
+    const [cx] = cell(this.index - this._segStart(), 0);
     ctx.fillStyle = '#ffffff22';
     ctx.fillRect(ox + (cx - PAD) * s, oy, (THUMB + 2 * PAD) * s, this.matrixImg.naturalHeight * s);
     // axis labels
@@ -182,10 +216,12 @@ export class ResultsView {
   _matrixInfo() {
     const el = document.getElementById('matrix-info');
     const P = this.paths;
-    if (!P) { el.textContent = 'no image matrix yet'; return; }
+    if (!P) { el.textContent = this.seg === null ? 'one drawing: no blending, no image matrix' : 'no image matrix yet'; return; }
     const chosen = this.info && this.info.blend === 'diagonal' ? P.diagonal : P.optimal;
     const abrupt = chosen.abrupt.map((a, i) => (a ? `t ${P.times[i].toFixed(2)}→${P.times[i + 1].toFixed(2)}` : null)).filter(Boolean);
-    el.textContent = `cost: chosen ${chosen.cost.toFixed(4)}, diagonal ${P.diagonal.cost.toFixed(4)}\n`
+    const s = this.seg;
+    const seg = this.app.info.keys > 2 ? `segment ${s} (key${s} to key${s + 1})\n` : '';
+    el.textContent = `${seg}cost: chosen ${chosen.cost.toFixed(4)}, diagonal ${P.diagonal.cost.toFixed(4)}\n`
       + `abrupt: ${abrupt.length ? abrupt.join(', ') : 'none'}`;
     el.dataset.abrupt = String(abrupt.length);
   }
@@ -195,15 +231,23 @@ export class ResultsView {
     const r = this.matrixCanvas.getBoundingClientRect();
     const { s, ox } = this._matrixLayout();
     const t = Math.floor(((e.clientX - r.left - ox) / s - PAD) / (THUMB + PAD));
-    if (t >= 0 && t < this.frames.length) this.show(t);
+    if (t >= 0 && t < this.paths.times.length) this.show(this._segStart() + t);
+  }
+
+  /** The stage menu of the previews, for the graph of the shot's keys. */
+  setGraph(info) {
+    const sel = document.getElementById('preview-stage');
+    const none = document.createElement('option');
+    none.value = ''; none.textContent = '(choose a stage)';
+    const keep = sel.value;
+    sel.replaceChildren(none, ...info.stages.map((s) => { const o = document.createElement('option'); o.value = o.textContent = s; return o; }));
+    sel.value = info.stages.includes(keep) ? keep : '';
   }
 
   _previews() {
     const sel = document.getElementById('preview-stage');
     const img = document.getElementById('preview-img');
-    const none = document.createElement('option');
-    none.value = ''; none.textContent = '(choose a stage)';
-    sel.append(none, ...this.app.info.stages.map((s) => { const o = document.createElement('option'); o.value = o.textContent = s; return o; }));
+    this.setGraph(this.app.info);
     sel.addEventListener('change', () => this.showPreview(sel.value));
     img.addEventListener('error', () => {
       img.hidden = true;

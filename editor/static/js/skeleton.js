@@ -12,13 +12,23 @@ export class SkeletonError extends Error {}
 export function keyPoseIndices(shot) {
   const poses = Array.isArray(shot.poses) ? shot.poses : [];
   if (!poses.length) return [];
-  if (!Array.isArray(shot.key_frames)) return poses.length >= 2 ? [0, poses.length - 1] : [0];
-  return shot.key_frames.map((f) => poses.findIndex((p) => p && p.frame === f)).filter((i) => i >= 0);
+  const frames = keyFramesOf(shot);
+  if (!frames) return poses.length >= 2 ? [0, poses.length - 1] : [0];
+  return frames.map((f) => poses.findIndex((p) => p && p.frame === f)).filter((i) => i >= 0);
 }
 
-/** Number of keyframes the shot has (at least the two of format v1). */
+export const V2 = 'inbetween-shot/2';
+
+/** A v2 shot's key frames ([0] when a one-drawing shot leaves them out); null for v1. */
+export function keyFramesOf(shot) {
+  if (Array.isArray(shot.key_frames)) return shot.key_frames;
+  return shot.format === V2 ? [0] : null;
+}
+
+/** Number of keyframes the shot has: v1 two, v2 its keyframes (at least one). */
 export function keyCount(shot) {
-  return Math.max(2, Array.isArray(shot.keyframes) ? shot.keyframes.length : 0);
+  const n = Array.isArray(shot.keyframes) ? shot.keyframes.length : 0;
+  return shot.format === V2 ? Math.max(1, n) : 2;
 }
 
 /** Make the skeleton and one pose per keyframe exist (empty), so joints can be added to a shot that has none. */
@@ -35,8 +45,8 @@ export function ensureSkeleton(shot) {
     // v1: the poses at t = 0 and t = 1; v2: one at every key frame
     const J = shot.skeleton.joints.length;
     const empty = () => Array.from({ length: J }, () => [0, 0, 0]);
-    if (Array.isArray(shot.key_frames)) {
-      for (const f of shot.key_frames) if (!shot.poses.some((p) => p.frame === f)) shot.poses.push({ frame: f, joints: empty() });
+    if (keyFramesOf(shot)) {
+      for (const f of keyFramesOf(shot)) if (!shot.poses.some((p) => p.frame === f)) shot.poses.push({ frame: f, joints: empty() });
       shot.poses.sort((a, b) => a.frame - b.frame);
     } else {
       if (!shot.poses.some((p) => p.t === 0)) shot.poses.unshift({ t: 0, joints: empty() });

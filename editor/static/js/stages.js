@@ -22,6 +22,9 @@ export class StagesPanel {
     setInterval(() => { if (this.status && this.status.state === 'running') this.render(); }, 1000);
   }
 
+  /** A new stage graph (keys were added or removed). */
+  setGraph(info) { this.stages = info.stages; this.parents = info.parents; this.plan = null; this.render(); }
+
   /** The stages downstream of the changed sources, in graph order (what saving now would rerun). */
   downstream(sources) {
     const hit = new Set(sources);
