@@ -39,7 +39,7 @@ def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, m
     plan = runs.status(small_shot)
     stale = {n for n, s in plan.statuses.items() if s.state != "fresh"}
     key1_down = {"key1/refined_masks", "key1/template", "seg0/key1/textured_template", "seg0/key1/deformed_frames",
-                 "seg0/rife_matrix", "seg0/quality_metrics", "seg0/optimal_path", "inbetween_frames"}
+                 "seg0/rife_matrix", "seg0/quality_metrics", "seg0/optimal_path", "seg0/frames", "inbetween_frames"}
     assert key1_down <= stale and not stale & set(KEY0_UPSTREAM) and "key1/masks" not in stale
     assert plan.statuses["key1/refined_masks"].causes == ["key1/t_junctions changed"]
     assert "upstream key1/template stale" in plan.statuses["seg0/key1/textured_template"].causes
