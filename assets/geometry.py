@@ -139,12 +139,15 @@ def _textured(s: int, k: int):
 
 def _deformed(s: int, k: int):
     def compute(env: StageEnv) -> StageResult:
-        """The textured template deformed into every pose of the segment and rendered (§4.3, §5.1)."""
+        """The textured template deformed into every pose of the segment and rendered (§4.3, §5.1); registered
+        onto the other key's drawing where the skeleton leaves it off, faded in toward that key."""
         shot, st = env.shot, env.settings
         textured: TexturedTemplate = env.read(side(s, k, "textured_template"))
         backward = k != shot.segment_keys(s)[0]  # the segment's last key deforms from its own end
+        others = [o for o in shot.segment_keys(s) if o != k]
+        other = env.read(f"key{others[0]}/masks") if others and st.register_lanes else None
         seq = deform_lane(textured, shot.segment_times(s), shot.segment_poses(s), backward, shot.size, st.mu,
-                          st.supersample)
+                          st.supersample, other)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
 
@@ -153,7 +156,9 @@ def _deformed(s: int, k: int):
 
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
                 "iterations_total": int(seq.iterations.sum()), "inpainted_share_max": share_max(seq.inpainted),
-                "distorted_share_max": share_max(seq.distorted)}
+                "distorted_share_max": share_max(seq.distorted), "registered": seq.fade is not None}
+        if seq.fade is not None:  # the injectivity cap leaves a frame short of its eased weight, if ever
+            meta["registration_weight_at_other_key"] = float(seq.fade[0 if backward else -1])
         marks = [(seq.inpainted, preview.INPAINTED_TINT), (seq.distorted, preview.DISTORTED_TINT)]
         return StageResult(seq, meta, preview.frame_strip(seq.images, marks=marks))
 

@@ -7,8 +7,10 @@ on both sides). Per segment s, between keys a = s and b = s + 1, each key's side
     seg{s}/key{a}/textured_template -> seg{s}/key{a}/deformed_frames  (and the same for key b)
     seg{s}/rife_matrix -> seg{s}/quality_metrics -> seg{s}/optimal_path -> seg{s}/frames
 and the shot's `inbetween_frames` joins the segments' frames. A side's texture reads the segment's other
-key (its drawing and refined masks show the pockets), which is why it belongs to the segment: editing key k's
-annotation reruns key k's lane and the two segments beside it, and nothing of the keys farther away.
+key (its drawing and refined masks show the pockets), and so do its deformed frames (registered onto the other
+key's drawing, its masks' colour and coverage, as they near that key: ops/geometry/register.py), which is why
+a side belongs to the segment: editing key k's annotation reruns key k's lane and the two segments beside it,
+and nothing of the keys farther away.
 
 A one-drawing shot (N = 1) has one segment, the whole motion, with one side and no blending:
     seg0/key0/textured_template -> seg0/key0/deformed_frames -> inbetween_frames
@@ -103,7 +105,8 @@ def shot_graph(n_keys: int) -> ShotGraph:
         for k, o in ((a, b), (b, a)):
             parents[side(s, k, "textured_template")] = (f"key{k}/template", f"key{k}/refined_masks",
                                                         f"key{o}/refined_masks", f"key{k}/pose", f"key{o}/pose")
-            parents[side(s, k, "deformed_frames")] = (side(s, k, "textured_template"), f"seg{s}/motion")
+            parents[side(s, k, "deformed_frames")] = (side(s, k, "textured_template"), f"seg{s}/motion",
+                                                      f"key{o}/masks")
         lanes = (side(s, a, "deformed_frames"), side(s, b, "deformed_frames"))
         parents[f"seg{s}/rife_matrix"] = lanes
         parents[f"seg{s}/quality_metrics"] = (f"seg{s}/rife_matrix", *lanes)

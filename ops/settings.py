@@ -30,6 +30,10 @@ class Settings:
     supersample: int = field(default=2, metadata=_doc("Renderer supersampling factor per axis (anti-aliasing)."))
     template_mode: str = field(default="optimized",
                                metadata=_doc("'optimized' (2.5D template, §4.4) or 'single-layer' (ablation)."))
+    register_lanes: bool = field(default=True, metadata=_doc(
+        "Register each lane, where it reaches the segment's other key, onto that key's drawing (optical flow at "
+        "the visible vertices, solved injectively) and fade the displacement in over the segment, so that both "
+        "lanes arrive where the drawings are (ops/geometry/register.py, docs/lanes.md)."))
     blend: str = field(default="optimal", metadata=_doc("'optimal' shortest-path blending or 'diagonal' alpha = t (§5.2)."))
     occlusion: str = field(default="hybrid", metadata=_doc(
         "Occlusion masks when none are given (§4.1): 'skeleton' from the skeleton alone (overlapping bodies of "

@@ -228,6 +228,9 @@ class DeformedSequence:
     iterations: np.ndarray  # (T,) int64 solver iterations per frame
     # (T, H, W) bool: visible pixels drawn by faces scaled beyond ops.appearance.render.DISTORTION_LIMIT
     distorted: np.ndarray | None = None
+    # (T,) float64: how much of the registration onto the other key's drawing each frame took (0 at the own
+    # key, 1 at the other; ops.geometry.register.fade_in), None where the lane is not registered
+    fade: np.ndarray | None = None
 
 
 @dataclass

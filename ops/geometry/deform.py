@@ -124,9 +124,9 @@ class Deformer:
     """Prepares one template's energy once; `solve` deforms it to handle targets (projected Newton or L-BFGS)."""
 
     def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
-                 method: str = "lbfgs"):
+                 method: str = "lbfgs", handle_weights: np.ndarray | None = None):
         """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids;
-        method: one of SOLVERS."""
+        method: one of SOLVERS; handle_weights (h,) scale mu per handle (None: 1 each)."""
         if method not in SOLVERS:
             raise ValueError(f"method must be one of {SOLVERS}, got {method!r}")
         self.rest = np.asarray(rest, dtype=np.float64)
@@ -135,7 +135,7 @@ class Deformer:
         self.method, self.mu = method, float(mu)
         self.norm = normalization(self.rest, self.faces)
         self.rest_n = self.norm.to_norm(self.rest)
-        self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu)
+        self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu, handle_weights)
         self._setup_free_groups()
         self._edges = _edge_operator(self.faces, len(self.rest))
         self._newton: NewtonSystem | None = None
@@ -155,7 +155,8 @@ class Deformer:
         self._free = np.nonzero(free)[0]
         self._group = group_of[comp[self._free]]
         self._group_size = np.bincount(self._group).astype(np.float64)
-        self._diagonal = np.bincount(self.handles, minlength=n).astype(np.float64) * 2.0 * self.mu
+        hw = self.energy_fn.handle_weights
+        self._diagonal = np.bincount(self.handles, None if hw is None else hw[:, 0], minlength=n) * 2.0 * self.mu
         if free.any():
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))

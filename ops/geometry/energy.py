@@ -48,10 +48,15 @@ def normalization(rest: np.ndarray, faces: np.ndarray) -> Normalization:
 class SymmetricDirichlet:
     """E_SD + pose term on a fixed rest mesh; evaluate with `value_grad` on normalized positions (n, 2)."""
 
-    def __init__(self, rest_n: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0):
-        """rest_n: (n, 2) normalized rest positions; faces (m, 3) int64; handles (h,) int64 vertex ids."""
+    def __init__(self, rest_n: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
+                 handle_weights: np.ndarray | None = None):
+        """rest_n: (n, 2) normalized rest positions; faces (m, 3) int64; handles (h,) int64 vertex ids;
+        handle_weights: (h,) float64 >= 0 scaling mu per handle (None: 1 each, the pose term)."""
         self.n, self.faces = len(rest_n), np.asarray(faces, dtype=np.int64)
         self.handles, self.mu = np.asarray(handles, dtype=np.int64), float(mu)
+        # a registration's data term trusts some vertices more than others; the pose term leaves this None so
+        # its arithmetic stays what it was
+        self.handle_weights = None if handle_weights is None else np.asarray(handle_weights, np.float64)[:, None]
         area = signed_areas(rest_n, self.faces)
         if (area <= 0).any():
             raise ValueError(f"rest mesh has {int((area <= 0).sum())} non-positive-area face(s)")
@@ -74,7 +79,12 @@ class SymmetricDirichlet:
         fro = (M * M).sum(axis=1)
         inv_d2 = 1.0 / (det * det)
         res = X[self.handles] - targets
-        E = float(np.dot(self.weight, fro * (1.0 + inv_d2)) + self.mu * (res * res).sum())
+        if self.handle_weights is not None:
+            wres = self.handle_weights * res
+            E = float(np.dot(self.weight, fro * (1.0 + inv_d2)) + self.mu * (wres * res).sum())
+        else:
+            E = float(np.dot(self.weight, fro * (1.0 + inv_d2)) + self.mu * (res * res).sum())
+            wres = res
         if not need_grad:
             return E, None
         # d/dM [w |M|^2 (1 + 1/det^2)] = 2 w (1 + 1/det^2) M - 2 w |M|^2 / det^3 cof(M)
@@ -86,7 +96,7 @@ class SymmetricDirichlet:
         gM[:, 2] += c2 * q
         gM[:, 3] -= c2 * p
         G = self.KT @ gM.reshape(-1, 2)
-        np.add.at(G, self.handles, 2.0 * self.mu * res)
+        np.add.at(G, self.handles, 2.0 * self.mu * wres)
         return E, G
 
     def energy(self, X: np.ndarray, targets: np.ndarray) -> float:

@@ -36,6 +36,10 @@ def test_a_three_key_sequence_shares_its_keys_and_reruns_one_key_alone(home, tmp
     for k, f in enumerate((0, 8, 16)):  # every key comes back as its drawing
         key = to_rgba(read_image(shot / f"key{k}.png"))
         assert psnr(_over_white(frames[f]), _over_white(key)) > 40
+    # each side's frames read the segment's other key's masks (registered onto its drawing near that key)
+    assert "key1/masks" in graph.parents["seg0/key0/deformed_frames"] and \
+        "key1/masks" in graph.parents["seg1/key2/deformed_frames"] and \
+        "key2/masks" not in graph.parents["seg0/key1/deformed_frames"]
     # the middle key's T-junction edit: its lane and both segments rerun, key 0's and key 2's lanes do not
     data = json.loads((shot / "shot.json").read_text())
     data["t_junctions"][1][0][0] += 1.5

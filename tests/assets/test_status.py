@@ -60,6 +60,13 @@ def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, m
         "setting template_mode changed (optimized -> single-layer)"]
     assert executed(runs.run_shot(small_shot, tmp_path / "single", single)) == stale
     runs.run_shot(small_shot, out)  # back to the default
+    # the lanes' registration onto the other key is read by the deformed frames alone: the textures stay fresh
+    unregistered = Settings(register_lanes=False)
+    plan = runs.status(small_shot, unregistered)
+    assert {n for n, s in plan.statuses.items() if s.state != "fresh"} == {
+        "seg0/key0/deformed_frames", "seg0/key1/deformed_frames", "seg0/rife_matrix", "seg0/quality_metrics",
+        "seg0/optimal_path", "seg0/frames", "inbetween_frames"}
+    assert plan.statuses["seg0/key1/deformed_frames"].causes == ["setting register_lanes changed (True -> False)"]
 
     # 3. a code change in the template's closure (simulated: the recorded file hashes differ from now)
     records = planning.code_records()
