@@ -1,0 +1,357 @@
+"""Two-key in-betweening shots from the 3D generator: one body, one camera, one look, a motion, exact in-betweens.
+
+A shot is the occlusion generator's character (bodies3d, looks3d, render3d) posed along a motion and drawn at
+SHOT_FRAMES evenly spaced poses with the same look and render seed, so every frame is the same character drawn
+the same way; the first and last drawings are the keys, all of them the ground truth. The motion is
+- procedural (every family): the body's own random pose with bones turned about their parent joints over the
+  shot (bodies move rigidly with their bones, children follow): a person reaches across the front of the
+  torso or walks, a quadruped trots, a creature walks or sweeps its tail from one side to the other;
+- or, for people when BVH clips are given, SHOT_FRAMES frames of a clip `step` frames apart (the body rebuilt
+  from the same random draws at every frame, only its bone directions differ).
+The camera scale and placement are fixed over the whole motion (the union of its extents). The skeleton is the
+AnimatedDrawings-style subset (occlusion3d.reduce_skeleton), projected per frame: x, y px and depth
+(larger = farther).
+
+Seeds come from the test split (occlusion3d.sample_seed('test', SHOT_INDEX_BASE + i)) and a random stream of
+their own (STREAM), so neither training nor tuning ever drew one of these characters.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+from scipy.spatial.transform import Rotation, Slerp
+
+from .bodies3d import LEFT, UP, Body, Mark, make_body, two_bone_ik, unit
+from .bvh import Motion
+from .looks3d import make_look3d
+from .occlusion3d import (
+    HELD_OUT_FAMILY,
+    HELD_OUT_STYLE,
+    MIN_EVIDENCE_PX,
+    _merge,
+    _motions,
+    pair_truth,
+    reduce_skeleton,
+    sample_seed,
+)
+from .render3d import Camera, Rendered, make_camera, render
+from .solids import Solid, transformed
+from .write import FORMAT, _dump, _write_png
+
+SHOT_FRAMES = 9  # output frames, both keys included
+SHOT_INDEX_BASE = 1_000_000  # test-split indices far past the occlusion benchmark's (it takes the first few)
+STREAM = 41  # the shots' own random stream: at an equal seed they draw nothing the occlusion samples draw
+MAX_TRIES = 40
+FILL = (0.6, 0.85)  # share of the frame the whole motion's extent fills
+# the default set: (body family, style family, motion); creature and crayon are held out of the network's
+# training (occlusion3d.HELD_OUT_FAMILY / HELD_OUT_STYLE); reach and tail move a limb across the body
+PLAN = (("round", "ink", "reach"), ("quadruped", "crayon", "trot"), ("thin", "flat", "walk"),
+        ("creature", "watercolour", "tail"), ("props", "colour_lines", "reach"), ("creature", "crayon", "walk"),
+        ("thin", "pencil", "reach"), ("round", "no_outline", "walk"))
+MOTIONS = {"round": ("reach", "walk"), "thin": ("reach", "walk"), "props": ("reach", "walk"),
+           "quadruped": ("trot",), "creature": ("walk", "tail")}
+
+
+@dataclass
+class Shot3D:
+    """One shot's arrays: frames (T, H, W, 3) uint8 RGB; coverage (T, H, W) float32; joints, parents of the
+    skeleton; poses (T, J, 3) float64 x, y px and depth; crossings per key: the sorted non-adjacent bone pairs
+    (child joint names) overlapping by >= MIN_EVIDENCE_PX; and what it is (family, style, motion, view, seed)."""
+
+    frames: np.ndarray
+    coverage: np.ndarray
+    joints: list[str]
+    parents: list[int]
+    poses: np.ndarray
+    crossings: tuple[list[str], list[str]]
+    family: str
+    style: str
+    motion: str
+    view: str
+    index: int
+    seed: int
+    attempt: int
+
+
+def plan(index: int) -> tuple[str, str, str]:
+    """(family, style, motion) of shot `index` (PLAN cycles)."""
+    return PLAN[index % len(PLAN)]
+
+
+# ----------------------------------------------------------------------------- rigid posing
+
+def axis_rotation(axis: np.ndarray, deg: float) -> np.ndarray:
+    """(3, 3) rotation by `deg` degrees about `axis`."""
+    return Rotation.from_rotvec(unit(axis) * math.radians(deg)).as_matrix()
+
+
+def turn_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(3, 3) the smallest rotation taking direction a (3,) to direction b (3,)."""
+    a, b = unit(a), unit(b)
+    axis = np.cross(a, b)
+    s, c = float(np.linalg.norm(axis)), float(np.clip(a @ b, -1, 1))
+    if s < 1e-9:
+        return np.eye(3) if c > 0 else axis_rotation(np.cross(a, LEFT if abs(a @ LEFT) < 0.9 else UP), 180.0)
+    return Rotation.from_rotvec(axis / s * math.atan2(s, c)).as_matrix()
+
+
+def posed(body: Body, local: dict[int, np.ndarray]) -> Body:
+    """The body with bone c (the one ending at joint c) turned by the (3, 3) rotation local[c] about its parent
+    joint, in its parent bone's turned frame; children follow. Joints, solids, marks and the AnimatedDrawings
+    moves ride rigidly on their bones (a bone's bodies are the solids whose `bone` is c)."""
+    rest, par = body.pose, body.parents
+    if any(p >= c for c, p in enumerate(par)):
+        raise ValueError("posed: parents must come before their children")
+    world = [np.eye(3)] * len(par)
+    new = rest.copy()
+    for c, p in enumerate(par):
+        if p >= 0:
+            world[c] = world[p] @ local.get(c, np.eye(3))
+            new[c] = new[p] + world[c] @ (rest[c] - rest[p])
+
+    def move(c: int) -> tuple[np.ndarray, np.ndarray]:
+        """Bone c's rigid motion x -> R x + t."""
+        p = par[c]
+        return (np.eye(3), np.zeros(3)) if p < 0 else (world[c], new[p] - world[c] @ rest[p])
+
+    solids = [transformed(s, *_rt(move(s.bone))) for s in body.solids]
+    marks = []
+    for m in body.marks:
+        r, t = move(body.solids[m.solid].bone)
+        marks.append(Mark(m.kind, m.points @ r.T + t, m.width, m.solid))
+    moves = {}
+    for name, p in body.ad_moves.items():  # e.g. the neck at the head's centre: it rides on the joint's child bone
+        j = body.joints.index(name)
+        child = next((c for c, q in enumerate(par) if q == j), j)
+        r, t = move(child)
+        moves[name] = r @ np.asarray(p) + t
+    return replace(body, pose=new, solids=solids, marks=marks, ad_moves=moves)
+
+
+def _rt(rt: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, float, np.ndarray]:
+    """(rotation, scale 1, shift) for solids.transformed."""
+    return rt[0], 1.0, rt[1]
+
+
+def _swing(times: np.ndarray, amp: float, phase: float) -> np.ndarray:
+    """(T,) degrees of a half cycle over the shot: amp * cos(pi t + phase) (from +amp to -amp at phase 0)."""
+    return amp * np.cos(math.pi * times + phase)
+
+
+def _slerp(r1: np.ndarray, times: np.ndarray) -> list[np.ndarray]:
+    """(T,) rotations from the identity at t = 0 to r1 (3, 3) at t = 1, along the shortest arc."""
+    s = Slerp([0.0, 1.0], Rotation.from_matrix(np.stack([np.eye(3), r1])))
+    return list(s(times).as_matrix())
+
+
+def procedural_motion(body: Body, kind: str, rng: np.random.Generator, times: np.ndarray
+                      ) -> tuple[list[Body], tuple[str, ...]]:
+    """The body at each time (T,) of a procedural motion, and the joints ending the bones that cross the body
+    (reach, tail): 'reach' (a person's hand from the side to across the front of the torso), 'walk' (legs and
+    arms swing in opposition), 'trot' (a quadruped's diagonal legs swing in pairs, head and tail follow),
+    'tail' (a creature's tail sweeps from one side to the other)."""
+    j = {n: i for i, n in enumerate(body.joints)}
+    turns: dict[int, list[np.ndarray]] = {}
+
+    def about(c: str, axis: np.ndarray, deg: np.ndarray) -> None:
+        turns[j[c]] = [axis_rotation(axis, float(d)) for d in deg]
+
+    if kind == "reach":
+        side = "right" if rng.random() < 0.5 else "left"
+        other = "left" if side == "right" else "right"
+        s, e, h = (j[f"{side}_{n}"] for n in ("shoulder", "elbow", "hand"))
+        p = body.pose
+        up = unit(p[j["torso"]] - p[j["root"]])
+        across = unit(p[j[f"{other}_shoulder"]] - p[s])
+        fwd = unit(np.cross(unit(p[j["left_shoulder"]] - p[j["right_shoulder"]]), up))
+        l1, l2 = np.linalg.norm(p[e] - p[s]), np.linalg.norm(p[h] - p[e])
+        # start: the arm hanging out to its side; end: the hand on the far side of the chest, in front of it
+        start_elbow = p[s] + l1 * unit(-up - 0.35 * across + 0.15 * fwd)
+        start_hand = start_elbow + l2 * unit(-up - 0.2 * across + 0.3 * fwd)
+        reach = float(np.linalg.norm(p[j[f"{other}_shoulder"]] - p[s]))
+        target = p[s] + across * reach * rng.uniform(0.7, 1.0) - up * l1 * rng.uniform(0.3, 0.8) \
+            + fwd * (l1 + l2) * rng.uniform(0.45, 0.6)
+        end_elbow, end_hand = two_bone_ik(p[s], target, l1, l2, unit(-up - 0.5 * across + 0.4 * fwd))
+        key = {}
+        for which, (elbow, hand) in (("start", (start_elbow, start_hand)), ("end", (end_elbow, end_hand))):
+            upper = turn_between(p[e] - p[s], elbow - p[s])
+            fore = upper.T @ turn_between(upper @ (p[h] - p[e]), hand - elbow) @ upper
+            key[which] = (upper, fore)
+        for c, k in ((e, 0), (h, 1)):  # from the start to the end, both given relative to the rest pose
+            a, b = key["start"][k], key["end"][k]
+            turns[c] = [a @ r for r in _slerp(a.T @ b, times)]
+        return [posed(body, {c: r[i] for c, r in turns.items()}) for i in range(len(times))], \
+            (f"{side}_elbow", f"{side}_hand")
+    moving: tuple[str, ...] = ()
+    if kind == "walk":
+        amp, phase = rng.uniform(22, 34), rng.uniform(-0.3, 0.3)
+        swing = _swing(times, amp, phase)
+        bend = 35 * np.sin(math.pi * times) * rng.uniform(0.6, 1.2)  # the knee of the leg passing forward bends
+        about("right_knee", LEFT, swing)
+        about("left_knee", LEFT, -swing)
+        about("right_foot" if "right_foot" in j else "right_knee", LEFT, bend)
+        about("right_elbow", LEFT, -0.8 * swing)
+        about("left_elbow", LEFT, 0.8 * swing)
+        if body.family == "creature":
+            about("tail2", UP, 0.5 * _swing(times, rng.uniform(10, 20), phase))
+    elif kind == "trot":
+        amp, phase = rng.uniform(18, 28), rng.uniform(-0.3, 0.3)
+        swing = _swing(times, amp, phase)
+        for leg, sign in (("right_knee_f", 1), ("left_knee_b", 1), ("left_knee_f", -1), ("right_knee_b", -1)):
+            about(leg, LEFT, sign * swing)
+        about("neck", LEFT, 0.3 * swing)
+        about("tail2", UP, 1.5 * swing)
+    elif kind == "tail":
+        amp = rng.uniform(35, 55)
+        sweep = _swing(times, amp, 0.0)
+        about("tail2", UP, sweep)
+        moving = ("tail2", "tail3")
+        about("tail3", UP, 0.6 * sweep)
+        about("head", UP, -0.4 * sweep)
+        about("right_elbow", LEFT, _swing(times, rng.uniform(20, 40), 0.0))
+    else:
+        raise ValueError(f"motion {kind!r}: use one of reach, walk, trot, tail")
+    return [posed(body, {c: r[i] for c, r in turns.items()}) for i in range(len(times))], moving
+
+
+def bvh_motion(rng_seed: list[int], family: str, motion: Motion, start: int, step: int) -> list[Body]:
+    """A person at SHOT_FRAMES clip frames start, start + step, ...: the body rebuilt from the same draws."""
+    return [make_body(np.random.default_rng(rng_seed), family, motion, start + i * step) for i in range(SHOT_FRAMES)]
+
+
+# ----------------------------------------------------------------------------- camera and drawing
+
+def place(bodies: list[Body], camera: Camera, size: tuple[int, int], rng: np.random.Generator):
+    """One scale and shift for the whole motion (its union extent fills a random FILL share of the (H, W)
+    frame); returns the projection ((n, 3) world -> (n, 3) x, y px and depth), or None when degenerate."""
+    rot = camera.rot
+    boxes = [s.extent() for b in bodies for s in (transformed(t, rot, 1.0, np.zeros(3)) for t in b.solids)]
+    lo, hi = np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+    span = hi - lo
+    if np.any(span < 1e-6):
+        return None
+    h, w = size
+    k = float(rng.uniform(*FILL)) * min((w - 8) / span[0], (h - 8) / span[1])
+    room = np.array([w, h]) - k * span
+    offset = np.array([rng.uniform(0.35, 0.65), rng.uniform(0.35, 0.65)]) * room - k * lo
+    shift = np.array([offset[0], offset[1], 200.0])  # keeps depths positive: only their order matters
+    return lambda p: k * np.asarray(p, np.float64) @ rot.T + shift  # noqa: E731
+
+
+def _on_camera(body: Body, project) -> tuple[list[Solid], list[Mark]]:
+    """The body's solids and marks in camera pixels under `project` (an orthographic scale, rotation, shift)."""
+    origin = project(np.zeros((1, 3)))[0]
+    lin = project(np.eye(3)) - origin  # rows: k * rot columns
+    k = float(np.linalg.norm(lin[0]))
+    rot = lin.T / k
+    solids = [transformed(s, rot, k, origin) for s in body.solids]
+    marks = [Mark(m.kind, project(m.points), m.width * k, m.solid) for m in body.marks]
+    return solids, marks
+
+
+def _crossings(drawn: Rendered, body: Body, pose_cam: np.ndarray, project) -> tuple[list[str], list[int], np.ndarray,
+                                                                                    list[str]]:
+    """The frame's AnimatedDrawings skeleton (joints, parents, (J, 3) pose) and its non-adjacent overlaps of
+    >= MIN_EVIDENCE_PX as 'front-back' child joint names."""
+    joints, parents, pose, bone_of = reduce_skeleton(body, pose_cam, project, ad=True)
+    cover, entry = _merge(drawn.cover, drawn.entry, bone_of)
+    _, pairs = pair_truth(cover, entry, joints, parents, drawn.coverage >= 0.5)
+    over = sorted(f"{p['front_part']}/{p['back_part']}" for p in pairs
+                  if not p["adjacent"] and p["pixels"] >= MIN_EVIDENCE_PX)
+    return joints, parents, pose, over
+
+
+def _involving(pairs: list[str], joints: tuple[str, ...]) -> set[str]:
+    """The 'front/back' pairs with a bone ending at one of `joints`."""
+    return {p for p in pairs if any(part.split("-")[-1] in joints for part in p.split("/"))}
+
+
+def make_shot3d(index: int, size: tuple[int, int] = (256, 256), bvh_dir: Path | str | None = None,
+                family: str | None = None, style: str | None = None, motion: str | None = None) -> Shot3D:
+    """Shot `index` (arrays only, nothing written): PLAN's family, style and motion unless given. With bvh_dir,
+    people move along one of its clips (motion 'bvh:<clip>'). Deterministic per (index, size, clips)."""
+    f0, s0, m0 = plan(index)
+    family, style, motion = family or f0, style or s0, motion or m0
+    seed = sample_seed("test", SHOT_INDEX_BASE + index)
+    clips = _motions(str(bvh_dir) if bvh_dir else None)
+    times = np.linspace(0.0, 1.0, SHOT_FRAMES)
+    for attempt in range(MAX_TRIES):
+        draws = [seed, attempt, STREAM]
+        rng = np.random.default_rng(draws)
+        source, moving = motion, ()
+        if clips and family in ("round", "thin", "props"):
+            name, clip = clips[int(rng.integers(len(clips)))]
+            step = int(rng.integers(2, 5))
+            if len(clip.frames) <= (SHOT_FRAMES - 1) * step:
+                continue
+            start = int(rng.integers(len(clip.frames) - (SHOT_FRAMES - 1) * step))
+            bodies = bvh_motion(draws + [1], family, clip, start, step)
+            if bodies[0].motion != "bvh":
+                continue
+            source = f"bvh:{name}:{start}:{step}"
+        else:
+            bodies, moving = procedural_motion(make_body(rng, family), motion, rng, times)
+        camera = make_camera(rng)
+        project = place(bodies, camera, size, rng)
+        if project is None:
+            continue
+        look = make_look3d(style, rng, scale=max(size) / 256.0)
+        frames, cover, poses, over = [], [], [], []
+        for body in bodies:
+            solids, marks = _on_camera(body, project)
+            drawn = render(solids, marks, size, look, seed * 7 + attempt)  # one render seed: one paper, one hand
+            joints, parents, pose, pairs = _crossings(drawn, body, project(body.pose), project)
+            frames.append(drawn.rgb)
+            cover.append(drawn.coverage)
+            poses.append(pose)
+            over.append(pairs)
+        fg = np.stack(cover) >= 0.5
+        if fg[:, 0].any() or fg[:, -1].any() or fg[:, :, 0].any() or fg[:, :, -1].any():
+            continue  # the character leaves the frame somewhere along the motion
+        if moving and _involving(over[0], moving) == _involving(over[-1], moving):
+            continue  # the moving limb must come to cross (or leave) another part between the keys
+        poses_arr = np.stack(poses)
+        poses_arr[..., 2] = np.round(poses_arr[..., 2], 3)
+        return Shot3D(np.stack(frames), np.stack(cover).astype(np.float32), joints, parents, poses_arr,
+                      (over[0], over[-1]), family, style, source, camera.view, index, seed, attempt)
+    raise RuntimeError(f"shot {index} ({family}, {style}, {motion}): no usable motion in {MAX_TRIES} tries")
+
+
+# ----------------------------------------------------------------------------- writing
+
+def shot_name(shot: Shot3D) -> str:
+    """The shot's directory name: index, family, style, motion kind."""
+    return f"h{shot.index:02d}_{shot.family}_{shot.style}_{shot.motion.split(':')[0]}"
+
+
+def write_shot3d(shot: Shot3D, out_root: Path) -> Path:
+    """Write one v1 shot directory under out_root (replaced if present): key0.png, key1.png (the first and last
+    frames), gt/0000.png ... (every frame), shot.json (AnimatedDrawings skeleton, every frame's projected pose
+    at t = i / (T - 1), frames = T, no T-junctions: the tool proposes them) and heldout.json (what it is)."""
+    d = Path(out_root) / shot_name(shot)
+    if d.exists():
+        shutil.rmtree(d)
+    d.mkdir(parents=True)
+    n = len(shot.frames)
+    for i, img in enumerate(shot.frames):
+        _write_png(d / "gt" / f"{i:04d}.png", img)
+    shutil.copyfile(d / "gt" / "0000.png", d / "key0.png")
+    shutil.copyfile(d / "gt" / f"{n - 1:04d}.png", d / "key1.png")
+    poses = [{"t": i / (n - 1), "joints": [[round(float(x), 2), round(float(y), 2), round(float(z), 3)]
+                                           for x, y, z in shot.poses[i]]} for i in range(n)]
+    data = {"format": FORMAT, "keyframes": ["key0.png", "key1.png"],
+            "skeleton": {"joints": shot.joints, "parents": shot.parents}, "poses": poses, "frames": n,
+            "t_junctions": [[], []], "ground_truth": "gt"}
+    (d / "shot.json").write_text(_dump(data) + "\n")
+    held = [k for k, v in (("body", shot.family == HELD_OUT_FAMILY), ("style", shot.style == HELD_OUT_STYLE)) if v]
+    meta = {"generator": "3d", "split": "test", "index": shot.index, "seed": shot.seed, "attempt": shot.attempt,
+            "family": shot.family, "style": shot.style, "motion": shot.motion, "view": shot.view,
+            "held_out_of_occlusion_training": held, "size": list(shot.frames.shape[1:3]),
+            "crossings": {"key0": shot.crossings[0], "key1": shot.crossings[1]}}
+    (d / "heldout.json").write_text(json.dumps(meta, indent=1) + "\n")
+    return d
