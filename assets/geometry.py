@@ -11,7 +11,7 @@ from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
 from ops.segmentation.refine import refine_masks
 from ops.shotio.image_io import read_image
-from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedTemplate
+from ops.types import DeformedSequence, Masks, RefinedMasks, Shot, Template, TexturedTemplate
 
 from .graph import side
 from .stage import StageEnv, StageResult, stage_asset
@@ -22,16 +22,21 @@ def _mask_image(path: str, field: str) -> np.ndarray:
     return img[..., 0] > 0.5 if img.shape[2] < 4 else (img[..., 0] > 0.5) & (img[..., 3] > 0.5)
 
 
+def key_masks(shot: Shot, k: int, drawing: np.ndarray, occlusion: str) -> Masks:
+    """Foreground and occlusion masks of keyframe k (§4.1), its (H, W, 4) drawing given: manual masks override
+    the prediction. The masks stage's computation, also called outside a run (assets/run/junctions.py)."""
+    fg = shot.foreground_masks[k]
+    manual_fg = _mask_image(fg, f"masks.foreground[{k}]") if fg else None
+    manual_occ = [_mask_image(p, f"masks.occlusion[{k}][{i}]") for i, p in enumerate(shot.occlusion_masks[k])] or None
+    return build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ, source=shot.keyframes[k],
+                       occlusion=occlusion)
+
+
 def _masks(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Foreground and occlusion masks of the keyframe (§4.1): manual masks override the prediction."""
-        shot = env.shot
-        fg = shot.foreground_masks[k]
-        manual_fg = _mask_image(fg, f"masks.foreground[{k}]") if fg else None
-        manual_occ = [_mask_image(p, f"masks.occlusion[{k}][{i}]") for i, p in enumerate(shot.occlusion_masks[k])] or None
         drawing = env.drawing(k)
-        masks = build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ, source=shot.keyframes[k],
-                            occlusion=env.settings.occlusion)
+        masks = key_masks(env.shot, k, drawing, env.settings.occlusion)
         for w in masks.warnings:
             env.context.log.warning(w)
         meta = {"regions": len(masks.occlusion), "foreground_px": int(masks.foreground.sum()), "source": masks.source,

@@ -489,6 +489,22 @@ async def refined_png(request: Request) -> Response:
     return await _call(work)
 
 
+@handler
+async def proposals(request: Request) -> Response:
+    """Query key k: keyframe k's T-junction proposals (editor/proposals.py) {"key", "cached", "min_score",
+    "click_wins_px", "hidden_by_clicks", "proposals": [{"x", "y", "score", "stem", "region"}, ...]}, best first,
+    none within click_wins_px of a saved click."""
+    ed = _ed(request)
+    if "key" not in request.query_params:
+        raise ShotError(params.where(request), "key", "is missing", "give the keyframe as ?key=K")
+
+    def work():
+        k = params.query_int(request, "key", 0, 0, _n_keys(_saved(ed)) - 1)
+        return JSONResponse(ed.proposals.get(ed.shot_dir, k), headers=NO_STORE)
+
+    return await _call(work)
+
+
 # ---------------------------------------------------------------- motion and live re-pose
 
 
@@ -661,6 +677,7 @@ ROUTES = [
     Route("/api/refined/{k}", refined),
     Route("/api/refined/{k}/{layer}.png", refined_png),
     Route("/api/refined/{k}/{layer}/{i}.png", refined_png),
+    Route("/api/proposals", proposals),
     Route("/api/motion", motion, methods=["POST"]),
     Route("/api/repose", repose, methods=["POST"]),
     Route("/api/frames", frames),

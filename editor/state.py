@@ -15,6 +15,7 @@ from ops.shotio.load import read_shot_json
 from .jointcheck import Foregrounds
 from .layers import Predictions
 from .maskfiles import Staging
+from .proposals import Proposals
 from .repose import Reposers
 from .rerun import Reruns
 from .results import Results
@@ -41,6 +42,7 @@ class EditorState:
         self.predictions = Predictions(self.store, self.partition, self.settings.occlusion)
         self.foregrounds = Foregrounds(self.store, self.partition)  # the save's joint check (editor/jointcheck.py)
         self.results = Results(self.store, self.partition)
+        self.proposals = Proposals(self.settings)  # T-junction proposals per key (editor/proposals.py)
 
     def _claim(self, url: str):
         """One editor per shot: two would both rerun it and both keep its rerun status."""

@@ -35,6 +35,7 @@ export const MOUSE = [
   ['Wheel over a joint', 'Depth z of the joint (Shift: 10x); up = nearer'],
   ['Space + drag, middle or right drag', 'Pan'],
   ['Alt + click a T-junction', 'Delete it'],
+  ['Click a proposal (hollow teal diamond)', 'Accept it as a T-junction'],
 ];
 
 /** The action bound to a keydown event, or null. */

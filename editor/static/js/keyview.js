@@ -8,6 +8,8 @@ import { Viewport, fitCanvas } from './viewport.js';
 const HIT_PX = 9;          // screen pixels within which a joint or a T-junction is picked
 const JOINT_R = 5;
 const TJ_R = 6;
+const PROP_R = 7;          // a proposal's hollow diamond (half its diagonal, screen pixels)
+const PROP_COLOUR = '#0a9bb5';
 const DRAG_PX = 4;         // a press that moves less than this is a click
 const WARN_COLOUR = '#f0a030';
 const Z_STEP = 0.1;        // depth change per wheel notch (Shift: x10)
@@ -99,6 +101,7 @@ export class KeyView {
     if (ref && show.has('boundaries')) this._boundaries(ref.json);
     if (show.has('skeleton')) this._skeleton();
     if (show.has('tjunctions')) this._tjunctions();
+    this._proposals();
     this._gesture();
     this._brushCursor();
     this._bubbles();
@@ -179,6 +182,34 @@ export class KeyView {
       ctx.lineWidth = 2; ctx.strokeStyle = selected ? '#ffeb3b' : '#d62728'; ctx.stroke();
       ctx.beginPath(); ctx.moveTo(sx - 3, sy); ctx.lineTo(sx + 3, sy); ctx.moveTo(sx, sy - 3); ctx.lineTo(sx, sy + 3);
       ctx.lineWidth = 1; ctx.stroke();
+    });
+  }
+
+  /** T-junction proposals: hollow dashed diamonds with a tick along the covered outline (the stem); the hovered
+   *  one says its score. Distinct from T-junctions (solid red rings with a cross). */
+  _proposals() {
+    const ctx = this.ctx;
+    this.proposalsShown = this.app.proposals.visible(this.k);
+    this.proposalsShown.forEach((p, i) => {
+      const [sx, sy] = this.view.toScreen(p.x, p.y);
+      const hovered = this.hover && this.hover.kind === 'prop' && this.hover.index === i;
+      const r = PROP_R + (hovered ? 2 : 0);
+      ctx.beginPath();
+      ctx.moveTo(sx, sy - r); ctx.lineTo(sx + r, sy); ctx.lineTo(sx, sy + r); ctx.lineTo(sx - r, sy); ctx.closePath();
+      ctx.setLineDash([]); ctx.lineWidth = 4; ctx.strokeStyle = '#ffffffcc'; ctx.stroke();
+      ctx.setLineDash([3, 2]); ctx.lineWidth = 2; ctx.strokeStyle = PROP_COLOUR; ctx.stroke();
+      ctx.setLineDash([]);
+      const [dx, dy] = p.stem;
+      ctx.beginPath(); ctx.moveTo(sx + dx * r, sy + dy * r); ctx.lineTo(sx + dx * (r + 6), sy + dy * (r + 6));
+      ctx.lineWidth = 2; ctx.stroke();
+      if (hovered) {
+        const label = `proposal ${p.score.toFixed(2)} · click to accept`;
+        ctx.font = '12px system-ui';
+        ctx.fillStyle = '#000b';
+        ctx.fillRect(sx + 11, sy - 22, ctx.measureText(label).width + 8, 17);
+        ctx.fillStyle = '#fff';
+        ctx.fillText(label, sx + 15, sy - 9);
+      }
     });
   }
 
@@ -312,6 +343,8 @@ export class KeyView {
       const d = Math.hypot(px - sx, py - sy);
       if (d < bestD) { best = { kind, index: i }; bestD = d; }
     });
+    // proposals too (Move and T-junction tools): the nearest item within HIT_PX is picked
+    if (['select', 'tjunction'].includes(this.app.tool)) consider('prop', (this.proposalsShown || []).map((p) => [p.x, p.y]));
     if (this.app.overlays.has('tjunctions') && this.app.tool !== 'skeleton') consider('tj', this.doc.shot.t_junctions?.[this.k] || []);
     if (this.app.overlays.has('skeleton')) consider('joint', this.doc.keyPose(this.k));
     return best;
@@ -365,6 +398,10 @@ export class KeyView {
       return;
     }
     const hit = this._pick(sx, sy);
+    if (hit && hit.kind === 'prop') {  // a click accepts a proposal: a T-junction there, one undo step
+      app.acceptProposal(this.k, this.proposalsShown[hit.index]);
+      return;
+    }
     if (hit && e.altKey && hit.kind === 'tj') {
       app.select(null);
       app.edit('delete T-junction', () => this.doc.shot.t_junctions[this.k].splice(hit.index, 1));
@@ -404,7 +441,8 @@ export class KeyView {
     if (!d) {
       const hover = this._pick(sx, sy);
       if (JSON.stringify(hover) !== JSON.stringify(this.hover)) this.hover = hover;
-      this.canvas.style.cursor = hover && this.app.tool !== 'paint' && this.app.tool !== 'erase' ? 'grab'
+      this.canvas.style.cursor = hover && hover.kind === 'prop' ? 'pointer'
+        : hover && this.app.tool !== 'paint' && this.app.tool !== 'erase' ? 'grab'
         : ['tjunction', 'skeleton', 'template'].includes(this.app.tool) ? 'crosshair' : 'default';
       if (this.app.tool === 'paint' || this.app.tool === 'erase' || hover || this.hover) this.draw();
       return;

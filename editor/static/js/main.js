@@ -7,6 +7,7 @@ import { actionFor, renderHelp } from './help.js';
 import { KeyView } from './keyview.js';
 import { MaskLayer, layerFromUrl, regionColour, FOREGROUND_COLOUR } from './masks.js';
 import { PoseView } from './pose.js';
+import { Proposals } from './proposals.js';
 import { ResultsView } from './results.js';
 import {
   SkeletonError, V2, addJoint, applyTemplate, copyPose, deleteJoint, keyCount, keyPoseIndices, renameJoint, reparent,
@@ -16,6 +17,7 @@ import { Timeline, keyFrames } from './timeline.js';
 
 const OVERLAYS = [
   ['drawing', 'Drawing', true], ['skeleton', 'Skeleton', true], ['tjunctions', 'T-junctions', true],
+  ['proposals', 'Proposals', false],  // off: still shown for a key without T-junctions (proposals.js)
   ['manual', 'Manual masks', true], ['predicted', 'Predicted masks', false], ['refined', 'Refined masks', false],
   ['boundaries', 'Refined boundaries', true], ['warnings', 'Stage warnings', true],
 ];
@@ -36,6 +38,7 @@ class App {
     this.templates = await getJSON('/api/templates');
     this.template = null;
     this.stages = new StagesPanel(this.info);
+    this.proposals = new Proposals(this);
     this.keys = [...document.querySelectorAll('.keypane')].map((pane) => new KeyView(+pane.dataset.k, pane, this));
     await this._open(null);
     this.results = new ResultsView(this);
@@ -123,6 +126,7 @@ class App {
     this.refined = Array(n).fill(null);
     this.activeLayer = Array(n).fill('fg');  // until the manual masks are in
     this.loading = new Map();  // key -> promise of its drawing and masks, loaded when first shown
+    this.proposals.reset();
     this.selected = null;
     $('mask-key').replaceChildren(...[...Array(n).keys()].map((i) => {
       const o = document.createElement('option'); o.value = String(i); o.textContent = `key${i}`; return o;
@@ -227,6 +231,7 @@ class App {
     this._inspector();
     this._skeletonPanel();
     this._shotFields();
+    this.proposalPanel();
     if (this.timeline) this.timeline.render();
   }
 
@@ -252,7 +257,24 @@ class App {
     document.querySelectorAll('.keypane').forEach((p) => p.classList.toggle('focus', !p.hidden && +p.dataset.k === k));
     if (+$('mask-key').value !== k) { $('mask-key').value = String(k); this._layers(); }
     this._skeletonPanel();
+    this.proposalPanel();
     if (this.timeline) this.timeline.render();
+  }
+
+  /** The Proposals panel: the focused key's proposals, Accept all >= score, Dismiss. */
+  proposalPanel() {
+    if (!this.proposals || !this.doc) return;
+    const k = this.focusedKey;
+    $('proposals-info').textContent = this.proposals.describe(k);
+    const n = this.proposals.visible(k).length;
+    $('proposals-accept-all').disabled = !n;
+    $('proposals-dismiss').disabled = !n;
+  }
+
+  acceptProposal(k, p) {
+    const index = this.proposals.accept(k, [p], 'accept proposal');
+    this.select({ k, kind: 'tj', index });
+    this.flash(`proposal (score ${p.score.toFixed(2)}) accepted as T-junction ${index} of key${k}`);
   }
 
   // ---------------------------------------------------------------- the timeline's structural edits
@@ -643,6 +665,7 @@ class App {
       this.stages.setPlan(null);
       await this.refreshPlan();
       this.loading = new Map();  // every key's stored masks may have changed: reload when shown
+      this.proposals.reset();
       await Promise.all(this.shownKeys().map((k) => this._ensureKey(k)));
       await this.loadWarnings();
       await this.results.refresh();
@@ -732,7 +755,12 @@ class App {
       const l = document.createElement('label');
       const box = document.createElement('input');
       box.type = 'checkbox'; box.checked = this.overlays.has(key); box.dataset.overlay = key;
-      box.addEventListener('change', () => { box.checked ? this.overlays.add(key) : this.overlays.delete(key); this.redraw(); });
+      box.addEventListener('change', () => {
+        box.checked ? this.overlays.add(key) : this.overlays.delete(key);
+        if (key === 'proposals' && box.checked) this.proposals.dismissed.clear();  // ticked: see them again
+        this.redraw();
+        this.proposalPanel();
+      });
       l.append(box, ` ${label}`);
       return l;
     }));
@@ -749,6 +777,16 @@ class App {
       this.edit('frames', () => { if (v === '') delete this.doc.shot.frames; else this.doc.shot.frames = Number(v); });
     });
     $('new-region').addEventListener('click', () => this.newRegion(+$('mask-key').value));
+    $('proposals-accept-all').addEventListener('click', () => {
+      const min = parseFloat($('proposals-min').value);
+      const n = this.proposals.acceptAll(this.focusedKey, Number.isFinite(min) ? min : 0);
+      this.flash(n ? `${n} proposal${n === 1 ? '' : 's'} accepted as T-junctions of key${this.focusedKey}` : 'no proposal scores that much');
+    });
+    $('proposals-dismiss').addEventListener('click', () => {
+      this.proposals.dismiss(this.focusedKey);
+      this.redraw();
+      this.proposalPanel();
+    });
     $('from-prediction').addEventListener('click', () => this.fromPrediction(+$('mask-key').value));
     $('undo').addEventListener('click', () => this.history.undo());
     $('redo').addEventListener('click', () => this.history.redo());
