@@ -34,7 +34,8 @@ EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 
 def _settings(args) -> Settings:
     return Settings(blend=getattr(args, "blend", "optimal"), template_mode=getattr(args, "template", "optimized"),
-                    occlusion=getattr(args, "occlusion", Settings().occlusion))
+                    occlusion=getattr(args, "occlusion", Settings().occlusion),
+                    register_lanes=getattr(args, "lanes", "registered") == "registered")
 
 
 def _exports(text: str) -> tuple[str, ...]:
@@ -57,6 +58,11 @@ def _parser() -> argparse.ArgumentParser:
                        help="predict occlusion masks from the skeleton alone, the skeleton's shaped by the drawing "
                             "(hybrid), or read them off the drawing (a small network, the skeleton as a guide)")
 
+    def lanes_flag(p):
+        p.add_argument("--lanes", choices=["registered", "skeleton"], default="registered",
+                       help="registered: each lane is registered onto the other key's drawing and faded in over the "
+                            "segment (docs/lanes.md); skeleton: the lanes follow the skeleton alone")
+
     def output_flags(p):
         p.add_argument("--export", type=_exports, default=DEFAULT_EXPORTS, metavar="LIST",
                        help=f"what OUT gets besides frames/*.png, comma-separated: {','.join(EXPORTS)} or all "
@@ -68,6 +74,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
         p.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
         occlusion_flag(p)
+        lanes_flag(p)
         p.add_argument("--verbose", action="store_true", help="show Dagster's event log live")
         p.add_argument("--debug", action="store_true", help="print the full trace when a stage fails")
 
@@ -90,6 +97,7 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--blend", choices=["optimal", "diagonal"], default="optimal")
     s.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
     occlusion_flag(s)
+    lanes_flag(s)
     m = sub.add_parser("masks", help="write a shot's masks in the form masks.foreground / masks.occlusion accept")
     m.add_argument("shot_dir")
     m.add_argument("--out", required=True)
@@ -105,6 +113,7 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("shots_root")
     e.add_argument("--out", default=None)
     occlusion_flag(e)
+    lanes_flag(e)
     u = sub.add_parser("ui", help="open the Dagster UI on this project's instance")
     u.add_argument("--port", type=int, default=3000, help="port on 127.0.0.1")
     ed = sub.add_parser("edit", help="annotate a shot in the browser; saving reruns it incrementally")
