@@ -20,6 +20,10 @@ from ops.geometry.polygon import points_in_polygon, project_to_polyline
 
 # Coordinates closer than this (pixels) are treated as the same vertex.
 _MERGE_GRID = 1e-7
+# an extra point closer than this to a constraint segment is moved off it to this distance: a handle 2e-4 px
+# from an occlusion region's loop made Triangle split the segment beside it into a flat sliver, and the template
+# then dropped every contact slit of the drawing (one_girl_wave: the forearm stayed sewn to the skirt)
+POINT_CLEARANCE_PX = 0.05
 
 
 @dataclass
@@ -105,6 +109,29 @@ def vertex_components(n: int, F: np.ndarray) -> np.ndarray:
     return connected_components(A, directed=False)[1].astype(np.int64)
 
 
+def _clear_of_segments(P: np.ndarray, polylines: list[np.ndarray], closed: list[bool]) -> np.ndarray:
+    """(p, 2) points P, each closer than POINT_CLEARANCE_PX to a segment of `polylines` moved straight away from
+    it to that distance (a point on a segment: along the segment's normal). Points on a vertex stay: they merge."""
+    P = P.copy()
+    A = [L if c else L[:-1] for L, c in zip(polylines, closed)]
+    B = [np.roll(L, -1, axis=0) if c else L[1:] for L, c in zip(polylines, closed)]
+    if not len(P) or not A:
+        return P
+    A, B = np.concatenate(A), np.concatenate(B)
+    AB = B - A
+    L2 = np.maximum((AB ** 2).sum(axis=1), 1e-18)
+    for i, p in enumerate(P):
+        t = np.clip(((p - A) * AB).sum(axis=1) / L2, 0.0, 1.0)
+        Q = A + t[:, None] * AB
+        d = np.linalg.norm(p - Q, axis=1)
+        j = int(d.argmin())
+        if d[j] >= POINT_CLEARANCE_PX or min(np.linalg.norm(p - A[j]), np.linalg.norm(p - B[j])) < _MERGE_GRID:
+            continue
+        away = (p - Q[j]) / d[j] if d[j] > 1e-12 else np.array([-AB[j, 1], AB[j, 0]]) / np.sqrt(L2[j])
+        P[i] = Q[j] + POINT_CLEARANCE_PX * away
+    return P
+
+
 def _merge_points(P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Exact-duplicate merge (after snapping to a 1e-7 px grid): (unique (u, 2) in first-seen order, inverse (k,))."""
     key = np.round(P / _MERGE_GRID).astype(np.int64)
@@ -176,6 +203,7 @@ def triangulate_pslg(
     slits = [np.asarray(L, dtype=np.float64).reshape(-1, 2) for L in (slits or [])]
     if slits:
         loops = _with_slit_ends(loops, slits)
+    pts = _clear_of_segments(pts, loops + slits, [True] * len(loops) + [False] * len(slits))
     sizes = [len(L) for L in loops]
     allp = np.concatenate(loops + slits + [pts], axis=0)
     U, inv = _merge_points(allp)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from ops.geometry.mesh import (
+    POINT_CLEARANCE_PX,
     boundary_loops,
     cut_along,
     face_stretch,
@@ -72,6 +73,19 @@ def test_extra_points_become_vertices_and_outside_points_dropped():
     assert np.allclose(res.V[res.point_vertex[:2]], pts[:2])
     assert res.point_vertex[2] == -1
     assert any("outside" in w for w in res.warnings)
+
+
+@pytest.mark.parametrize("offset", [0.0, 2e-4, -3e-3, 0.049])
+def test_a_point_a_hair_off_a_constraint_loop_leaves_no_flat_face(offset):
+    """A handle 2e-4 px from an occlusion region's loop (one_girl_wave) made Triangle emit a flat sliver; the point
+    is moved off the segment to POINT_CLEARANCE_PX, so every face keeps a real area and the point a vertex."""
+    outer, inner = square(0, 0, 60), square(20, 20, 20, n_side=3)
+    p = np.array([[26.3, 20.0 + offset], [31.1, 40.0 - offset], [40.0, 40.0]])  # two near an edge, one on a corner
+    res = triangulate_pslg([outer, inner], 4.0, points=p)
+    assert signed_areas(res.V, res.F).min() > 1e-3
+    moved = np.linalg.norm(res.V[res.point_vertex] - p, axis=1)
+    assert (res.point_vertex >= 0).all() and moved.max() <= POINT_CLEARANCE_PX + 1e-9
+    assert moved[2] == 0.0  # a point on a loop vertex merges with it
 
 
 def test_points_in_polygon_matches_analytic_disc():
