@@ -39,19 +39,21 @@ DAGSTERS = """
 import sys, warnings
 warnings.filterwarnings("ignore")
 import dagster as dg
-from dagster._core.definitions.data_version import CachingStaleStatusResolver
+from dagster._core.definitions.data_version import CachingStaleStatusResolver, StaleStatus
 from dagster._core.loader import LoadingContextForTest
 from assets.definitions import defs
 from assets.graph import shot_graph
 from assets.run import register
+from assets.home import ensure_home
 from assets.run.session import open_instance
 from ops.shotio.load import load_shot
 shot = load_shot(sys.argv[1])
 partition = register(shot.root)
+ensure_home()  # DAGSTER_HOME under INBETWEEN_HOME, as every command sets it
 instance = open_instance()
 resolver = CachingStaleStatusResolver(instance, defs.resolve_asset_graph(), LoadingContextForTest(instance))
 stale = [n for n in shot_graph(shot.n_keys).stages
-         if resolver.get_status(dg.AssetKey(n.split("/")), partition) != dg.StaleStatus.FRESH]
+         if resolver.get_status(dg.AssetKey(n.split("/")), partition) != StaleStatus.FRESH]
 print(len(stale))
 """
 
@@ -62,8 +64,10 @@ import dagster as dg
 from assets.run import register
 from assets.run.planning import plan
 from assets.run.session import Session
+from assets.home import ensure_home
 from benchmarks.bench_engines import multiprocess_job
 from ops.settings import Settings
+ensure_home()  # DAGSTER_HOME under INBETWEEN_HOME, as every command sets it
 p = plan(sys.argv[1])
 session = Session.get(Settings())
 session.ensure_partition(p.partition)
