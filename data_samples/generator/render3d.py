@@ -59,24 +59,33 @@ def make_camera(rng: np.random.Generator) -> Camera:
     return Camera(spin @ tilt @ front @ turn, yaw, pitch, names[k])
 
 
-def on_camera(body: Body, camera: Camera, size: tuple[int, int], rng: np.random.Generator, fill: tuple = (0.55, 0.85)
-              ) -> tuple[list[Solid], list[Mark], np.ndarray, Callable] | None:
-    """The body's solids, marks and (J, 3) joints in camera pixels (x, y, depth), scaled so that it fills a
-    random 55-85% of the (H, W) frame, placed with some jitter; and the projection ((n, 3) world points ->
-    (n, 3) camera pixels). None when its shape is degenerate."""
-    rot = camera.rot
-    unit_solids = [transformed(s, rot, 1.0, np.zeros(3)) for s in body.solids]
-    lo = np.min([s.extent()[0] for s in unit_solids], axis=0)
-    hi = np.max([s.extent()[1] for s in unit_solids], axis=0)
+def fit_to_frame(solids: list[Solid], rot: np.ndarray, size: tuple[int, int], rng: np.random.Generator,
+                 fill: tuple, jitter: tuple) -> tuple[float, np.ndarray] | None:
+    """Scale k and shift (3,) that fit the rotated solids' extent to a random `fill` share of the (H, W) frame,
+    placed at a random `jitter` share of the room left; None when the extent is degenerate."""
+    unit = [transformed(s, rot, 1.0, np.zeros(3)) for s in solids]
+    lo = np.min([s.extent()[0] for s in unit], axis=0)
+    hi = np.max([s.extent()[1] for s in unit], axis=0)
     span = hi - lo
     if np.any(span < 1e-6):
         return None
     h, w = size
     k = float(rng.uniform(*fill)) * min((w - 8) / span[0], (h - 8) / span[1])
     room = np.array([w, h]) - k * span
-    offset = np.array([rng.uniform(0.3, 0.7), rng.uniform(0.3, 0.7)]) * room - k * lo
-    depth0 = 200.0  # keeps depths positive: nothing depends on their origin
-    shift = np.array([offset[0], offset[1], depth0])
+    offset = np.array([rng.uniform(*jitter), rng.uniform(*jitter)]) * room - k * lo
+    return k, np.array([offset[0], offset[1], 200.0])  # depth 200 keeps depths positive: only their order matters
+
+
+def on_camera(body: Body, camera: Camera, size: tuple[int, int], rng: np.random.Generator, fill: tuple = (0.55, 0.85)
+              ) -> tuple[list[Solid], list[Mark], np.ndarray, Callable] | None:
+    """The body's solids, marks and (J, 3) joints in camera pixels (x, y, depth), scaled so that it fills a
+    random 55-85% of the (H, W) frame, placed with some jitter; and the projection ((n, 3) world points ->
+    (n, 3) camera pixels). None when its shape is degenerate."""
+    rot = camera.rot
+    fit = fit_to_frame(body.solids, rot, size, rng, fill, (0.3, 0.7))
+    if fit is None:
+        return None
+    k, shift = fit
     solids = [transformed(s, rot, k, shift) for s in body.solids]
     marks = [Mark(m.kind, k * m.points @ rot.T + shift, m.width * k, m.solid) for m in body.marks]
     project = lambda p: k * np.asarray(p, np.float64) @ rot.T + shift  # noqa: E731

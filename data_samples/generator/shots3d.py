@@ -39,7 +39,7 @@ from .occlusion3d import (
     reduce_skeleton,
     sample_seed,
 )
-from .render3d import Camera, Rendered, make_camera, render
+from .render3d import Camera, Rendered, fit_to_frame, make_camera, render
 from .solids import Solid, transformed
 from .write import FORMAT, _dump, _write_png
 
@@ -229,18 +229,11 @@ def bvh_motion(rng_seed: list[int], family: str, motion: Motion, start: int, ste
 def place(bodies: list[Body], camera: Camera, size: tuple[int, int], rng: np.random.Generator):
     """One scale and shift for the whole motion (its union extent fills a random FILL share of the (H, W)
     frame); returns the projection ((n, 3) world -> (n, 3) x, y px and depth), or None when degenerate."""
-    rot = camera.rot
-    boxes = [s.extent() for b in bodies for s in (transformed(t, rot, 1.0, np.zeros(3)) for t in b.solids)]
-    lo, hi = np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
-    span = hi - lo
-    if np.any(span < 1e-6):
+    fit = fit_to_frame([s for b in bodies for s in b.solids], camera.rot, size, rng, FILL, (0.35, 0.65))
+    if fit is None:
         return None
-    h, w = size
-    k = float(rng.uniform(*FILL)) * min((w - 8) / span[0], (h - 8) / span[1])
-    room = np.array([w, h]) - k * span
-    offset = np.array([rng.uniform(0.35, 0.65), rng.uniform(0.35, 0.65)]) * room - k * lo
-    shift = np.array([offset[0], offset[1], 200.0])  # keeps depths positive: only their order matters
-    return lambda p: k * np.asarray(p, np.float64) @ rot.T + shift  # noqa: E731
+    k, shift = fit
+    return lambda p: k * np.asarray(p, np.float64) @ camera.rot.T + shift  # noqa: E731
 
 
 def _on_camera(body: Body, project) -> tuple[list[Solid], list[Mark]]:
