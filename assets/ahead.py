@@ -8,14 +8,16 @@ replays its log lines, yields the output for the IO manager to store and runs
 the checks. The worker that computed a stage also writes its output beside
 its place in the store (Store.stage) once the stages below it may start, so
 the IO manager only renames it into place; if that write fails, the IO
-manager writes the output itself (and reports the failure, a full disk). The two keyframe lanes are independent up to rife_matrix, and
-numpy, SciPy, OpenCV and torch release the GIL, so both cores work; Dagster's
-event writes and the store's file writes overlap the computing too.
+manager writes the output itself (and reports the failure, a full disk). The two keyframe lanes are independent up to rife_matrix; their heavy op
+calls run in worker processes (assets/processes.py), so both cores work on them
+while this process's GIL serves Dagster's event writes and the store's file
+writes.
 
-A worker with no stage ready (one lane finished before the other, or
-while rife_matrix runs) prepares what stages of the run import or load when
-they start, and the Definitions leave out so that a cold run starts computing
-sooner: the RIFE network with torch (about 1.5 s), pandas (0.3 s).
+What stages of the run import or load when they start, and the Definitions
+leave out so that a cold run starts computing sooner (the RIFE network, pandas
+0.3 s), is prepared ahead too: on a thread of its own from the start when the
+stages' op calls run in worker processes (assets/processes.py: the workers only
+wait on them), else by a worker with no stage ready.
 
 Outputs computed in the run stay in memory for the stages below them (no
 read back from disk) until the run ends. Freshness is decided exactly as in
@@ -36,6 +38,7 @@ from ops.settings import RecordingSettings, Settings
 from ops.types import Shot
 from resources.store import Store
 
+from . import processes
 from .graph import shot_graph
 from .stage import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
 
@@ -77,7 +80,8 @@ class WorkAhead:
     """The selected stages of one partition's run, computed ahead of their steps on WORKERS threads."""
 
     def __init__(self, partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
-                 store: Store, resources: dict[str, Any], workers: int = WORKERS):
+                 store: Store, resources: dict[str, Any], workers: int = WORKERS, parallel: bool = False):
+        """parallel: the stages' op calls run in worker processes (assets/processes.py), whose pool is started."""
         self.partition, self.names, self.shot, self.sources = partition, set(names), shot, sources
         self.settings, self.store, self.resources = settings, store, resources
         self.graph = shot_graph(shot.n_keys)
@@ -91,9 +95,14 @@ class WorkAhead:
         self.urgent: str | None = None  # the stage a step waits for: picked first
         self.warm_up = _warm_ups(self.order, resources)  # for a worker with no stage ready, in this order
         self.closed = False
+        self.parallel = parallel
         self.cond = threading.Condition()
         self.threads = [threading.Thread(target=self._work, name=f"inbetween-ahead-{i}", daemon=True)
                         for i in range(workers)]
+        if self.parallel:  # the workers only wait on processes: the warm-ups get a thread of their own, now
+            jobs, self.warm_up = self.warm_up, []
+            self.threads.append(threading.Thread(target=lambda: [_prepare(job) for job in jobs], daemon=True,
+                                                 name="inbetween-ahead-warm-up"))
 
     # ---- the executor's side
 
@@ -183,6 +192,7 @@ class WorkAhead:
     def _env(self, name: str, context: Any) -> StageEnv:
         env = StageEnv(context, self.partition, self.store, None, RecordingSettings(self.settings), self.memory, name)
         env.__dict__["shot"] = self.shot  # the plan's shot: loaded once per run
+        env.parallel = self.parallel
         return env
 
     def start(self) -> None:
@@ -220,7 +230,8 @@ def _prepare(job: Callable[[], Any]) -> None:
 def working_ahead(partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
                   store: Store, resources: dict[str, Any]) -> Iterator[WorkAhead]:
     """While open, the steps of `names` for this partition in this process take their outcomes from a WorkAhead."""
-    ahead = WorkAhead(partition, names, shot, sources, settings, store, resources)
+    parallel = processes.pool() is not None  # started now: its imports overlap Dagster's start
+    ahead = WorkAhead(partition, names, shot, sources, settings, store, resources, parallel=parallel)
     AHEAD[partition] = ahead
     ahead.start()
     try:

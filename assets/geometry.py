@@ -2,6 +2,9 @@
 key's side of it: textured template (from its drawing and the segment's other key's) -> deformed frames."""
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
 from ops import preview
@@ -22,21 +25,23 @@ def _mask_image(path: str, field: str) -> np.ndarray:
     return img[..., 0] > 0.5 if img.shape[2] < 4 else (img[..., 0] > 0.5) & (img[..., 3] > 0.5)
 
 
-def key_masks(shot: Shot, k: int, drawing: np.ndarray, occlusion: str) -> Masks:
+def key_masks(shot: Shot, k: int, drawing: np.ndarray, occlusion: str,
+              call: Callable[..., Any] = lambda fn, *a, **kw: fn(*a, **kw)) -> Masks:
     """Foreground and occlusion masks of keyframe k (§4.1), its (H, W, 4) drawing given: manual masks override
-    the prediction. The masks stage's computation, also called outside a run (assets/run/junctions.py)."""
+    the prediction. The masks stage's computation (`call` runs build_masks: StageEnv.offload), also called
+    outside a run (assets/run/junctions.py)."""
     fg = shot.foreground_masks[k]
     manual_fg = _mask_image(fg, f"masks.foreground[{k}]") if fg else None
     manual_occ = [_mask_image(p, f"masks.occlusion[{k}][{i}]") for i, p in enumerate(shot.occlusion_masks[k])] or None
-    return build_masks(drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ, source=shot.keyframes[k],
-                       occlusion=occlusion)
+    return call(build_masks, drawing, shot.key_pose(k), shot.skeleton, manual_fg, manual_occ,
+                source=shot.keyframes[k], occlusion=occlusion)
 
 
 def _masks(k: int):
     def compute(env: StageEnv) -> StageResult:
         """Foreground and occlusion masks of the keyframe (§4.1): manual masks override the prediction."""
         drawing = env.drawing(k)
-        masks = key_masks(env.shot, k, drawing, env.settings.occlusion)
+        masks = key_masks(env.shot, k, drawing, env.settings.occlusion, env.offload)
         for w in masks.warnings:
             env.context.log.warning(w)
         meta = {"regions": len(masks.occlusion), "foreground_px": int(masks.foreground.sum()), "source": masks.source,
@@ -93,8 +98,8 @@ def _template(k: int):
         shot, s = env.shot, env.settings
         refined: RefinedMasks = env.read(f"key{k}/refined_masks")
         solver = Solver(s.mu, s.grad_tol, s.max_iter, s.topology_budget)
-        template = optimize_topology(refined, shot.key_pose(k), _targets(shot, k), shot.skeleton,
-                                     mode=s.template_mode, solver=solver, previous=_previous_template(env, k))
+        template = env.offload(optimize_topology, refined, shot.key_pose(k), _targets(shot, k), shot.skeleton,
+                               mode=s.template_mode, solver=solver, previous=_previous_template(env, k))
         for w in template.warnings:
             env.context.log.warning(w)
         meta = {"V": len(template.rest), "F": len(template.faces), "layers": int(template.face_layer.max()) + 1,
@@ -129,9 +134,9 @@ def _textured(s: int, k: int):
         others = [o for o in shot.segment_keys(s) if o != k]
         other = env.read(f"key{others[0]}/refined_masks") if others else None
         other_pose = shot.key_pose(others[0]) if others else None
-        textured, energy = texture_lane(env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"), other,
-                                        shot.key_pose(k), other_pose, env.resource("inpainter").get(), st.mu,
-                                        st.grad_tol, st.max_iter)
+        textured, energy = env.offload(texture_lane, env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
+                                       other, shot.key_pose(k), other_pose, env.resource("inpainter").get(), st.mu,
+                                       st.grad_tol, st.max_iter)
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),
@@ -151,8 +156,8 @@ def _deformed(s: int, k: int):
         backward = k != shot.segment_keys(s)[0]  # the segment's last key deforms from its own end
         others = [o for o in shot.segment_keys(s) if o != k]
         other = env.read(f"key{others[0]}/masks") if others and st.register_lanes else None
-        seq = deform_lane(textured, shot.segment_times(s), shot.segment_poses(s), backward, shot.size, st.mu,
-                          st.supersample, other)
+        seq = env.offload(deform_lane, textured, shot.segment_times(s), shot.segment_poses(s), backward, shot.size,
+                          st.mu, st.supersample, other)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
 

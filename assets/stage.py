@@ -32,7 +32,7 @@ from resources.shots import ShotsResource
 from resources.storage import DIGEST_KEY, PROVENANCE_KEY
 from resources.store import Store, content_hash
 
-from . import progress
+from . import processes, progress
 from .codeversion import code_record, code_version
 from .graph import shot_graph, union_graph, union_sources
 from .provenance import differences, parent_versions, provenance
@@ -66,6 +66,7 @@ class StageEnv:
     settings: RecordingSettings
     memory: dict[str, Any] = field(default_factory=dict)  # outputs this run already computed, by stage
     stage: str = ""  # the stage this environment computes
+    parallel: bool = False  # op calls go to worker processes (assets/processes.py): the work-ahead's runs
 
     @cached_property
     def shot(self) -> Shot:
@@ -85,6 +86,10 @@ class StageEnv:
 
     def log(self, message: str) -> None:
         self.context.log.info(message)
+
+    def offload(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """fn(*args, **kwargs) for an ops function fn: in a worker process when this run has them."""
+        return processes.run(fn, *args, **kwargs) if self.parallel else fn(*args, **kwargs)
 
 
 def preview_markdown(img: np.ndarray, max_width: int = 640) -> str:

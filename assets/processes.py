@@ -1,0 +1,129 @@
+"""Worker processes for the stages' heavy op calls, so that both keyframe lanes truly compute at once.
+
+The deformer's L-BFGS loop, the cut search and the renderer are small-array NumPy and Python: on the
+work-ahead's threads (assets/ahead.py) they took turns on the GIL with each other and with Dagster's
+bookkeeping in the main thread (a cold run of arm_cross: key0's deformed frames 2.5 s alone, 8.3 s beside
+the rest). A stage's compute function hands its one op call to `StageEnv.offload`, which runs it here, in one
+of WORKERS processes, when the run has a pool, and in the calling thread otherwise.
+
+The processes are forked from multiprocessing's fork server, a fresh interpreter that imports the ops once
+(PRELOAD, about 1 s, while the run starts Dagster), never from this multi-threaded process (a fork of it
+could inherit a lock some other thread holds). Each op's arguments and result are pickled between this
+process and its own children: the one place besides `batch` where pickle crosses a process boundary, and
+both ends are our code (docs/design.md, threat model). A worker ignores SIGINT (Ctrl-C reaches the whole
+process group; the run itself stops and exits 130) and ends when this process does: the pool's processes are
+terminated at exit, and one whose parent is gone finds its pipe closed.
+"""
+from __future__ import annotations
+
+import atexit
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import types
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
+from typing import Any
+
+WORKERS = 2  # the machine's cores: the two lanes
+# what the stages offload needs, imported once in the fork server (and never Dagster or torch)
+PRELOAD = ("ops.appearance.lane", "ops.geometry.topology", "ops.segmentation.masks")
+ENV_SWITCH = "INBETWEEN_PROCESSES"  # "0": every op in the calling thread (a batch worker's shot, a debugger)
+
+_lock = threading.Lock()
+_pool: ProcessPoolExecutor | None = None
+
+
+def enabled() -> bool:
+    """Whether runs in this process offload their op calls to worker processes."""
+    return os.environ.get(ENV_SWITCH, "1") != "0"
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def pool() -> ProcessPoolExecutor | None:
+    """This process's pool, started on first use (None when disabled); its processes start right away, so that
+    the fork server's imports overlap whatever the caller does next."""
+    global _pool
+    if not enabled():
+        return None
+    with _lock:
+        if _pool is None:
+            ctx = multiprocessing.get_context("forkserver")
+            ctx.set_forkserver_preload(list(PRELOAD))
+            _pool = ProcessPoolExecutor(WORKERS, mp_context=ctx, initializer=_ignore_sigint)
+            with _main_module_hidden():
+                for _ in range(WORKERS):  # each submit starts a worker: all of them now, not at the first op
+                    _pool.submit(int)
+        return _pool
+
+
+@contextmanager
+def _main_module_hidden() -> Iterator[None]:
+    """While workers start: multiprocessing would have each run this process's __main__ again (as __mp_main__:
+    the `inbetween` script imports the CLI, a script without a main guard runs itself); the ops need none of it."""
+    main = sys.modules["__main__"]
+    sys.modules["__main__"] = types.ModuleType("__main__")
+    try:
+        yield
+    finally:
+        sys.modules["__main__"] = main
+
+
+def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+    """fn(*args, **kwargs) in a worker process of this process's pool (in this thread when there is none).
+
+    fn must be importable by name outside Dagster (an ops function). A worker that dies (a crash in native code)
+    is a RuntimeError naming fn, and the next call starts a new pool."""
+    executor = pool()
+    if executor is None:
+        return fn(*args, **kwargs)
+    try:
+        return executor.submit(_call, fn, args, kwargs).result()
+    except BrokenProcessPool:
+        _discard(executor)
+        raise RuntimeError(f"the worker process running {fn.__module__}.{fn.__qualname__} died "
+                           "(a crash in native code); rerun the shot, or set INBETWEEN_PROCESSES=0 to run it "
+                           "in this process") from None
+
+
+def _call(fn: Callable[..., Any], args: tuple, kwargs: dict) -> Any:
+    """In the worker: fn(*args, **kwargs); an exception that could not be rebuilt from its pickle in this process
+    (a constructor whose arguments are not its args) is sent as a RuntimeError with its type and message:
+    failing to unpickle it would break the whole pool."""
+    try:
+        return fn(*args, **kwargs)
+    except Exception as e:
+        try:  # rebuilt from its reduction, as unpickling in this process would rebuild it
+            rebuild, rebuild_args, *_ = e.__reduce__()
+            rebuild(*rebuild_args)
+        except Exception:  # noqa: BLE001  (whatever the exception's own constructor raises)
+            raise RuntimeError(f"{type(e).__name__}: {e}") from None
+        raise
+
+
+def _discard(executor: ProcessPoolExecutor) -> None:
+    global _pool
+    with _lock:
+        if _pool is executor:
+            _pool = None
+    executor.shutdown(wait=False, cancel_futures=True)
+
+
+@atexit.register
+def shutdown() -> None:
+    """Terminate the pool's processes now (an op still computing is dropped with its run)."""
+    global _pool
+    with _lock:
+        executor, _pool = _pool, None
+    if executor is None:
+        return
+    for p in list(getattr(executor, "_processes", {}).values()):  # what shutdown(wait=False) leaves running
+        p.terminate()
+    executor.shutdown(wait=False, cancel_futures=True)

@@ -1,0 +1,78 @@
+"""The stages' worker processes (assets/processes.py): ops run there, errors come back, a crash is one error, and
+a shot computed with them gives byte-identical outputs to one computed on threads."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+
+import pytest
+
+import assets.processes as processes
+from ops.errors import ShotError
+
+
+def test_an_op_runs_in_another_process_and_returns_its_result():
+    pid = processes.run(os.getpid)
+    assert pid != os.getpid()
+    assert processes.run(divmod, 17, 5) == (3, 2)
+
+
+def test_an_ops_error_comes_back_as_itself():
+    with pytest.raises(ShotError, match="shot.json: poses"):
+        processes.run(_raise_shot_error)
+
+
+def _raise_shot_error():
+    raise ShotError("shot.json", "poses", "bad", "fix it")
+
+
+class _Unpicklable(Exception):
+    def __init__(self, a, b):
+        super().__init__(f"{a} and {b}")
+
+
+def _raise_unpicklable():
+    raise _Unpicklable("this", "that")
+
+
+def test_an_error_that_cannot_be_pickled_comes_back_as_its_message():
+    with pytest.raises(RuntimeError, match="_Unpicklable: this and that"):
+        processes.run(_raise_unpicklable)
+    assert processes.run(divmod, 7, 2) == (3, 1)  # the pool is not broken
+
+
+def test_a_worker_that_dies_is_one_error_and_the_next_op_gets_a_new_pool():
+    with pytest.raises(RuntimeError, match="_crash.*died"):
+        processes.run(_crash)
+    assert processes.run(divmod, 7, 2) == (3, 1)
+
+
+def _crash():
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_switched_off_every_op_runs_here(monkeypatch):
+    monkeypatch.setenv(processes.ENV_SWITCH, "0")
+    assert processes.pool() is None
+    assert processes.run(os.getpid) == os.getpid()
+
+
+@pytest.mark.slow  # two cold runs of a half-size shot
+def test_processes_and_threads_compute_the_same_outputs(home, small_shot, tmp_path, monkeypatch):
+    """Every stage's data version (the content hash of its output) is the same whichever way the ops ran."""
+    from assets.run.execute import run_shot
+
+    versions = []
+    for switch in ("1", "0"):
+        monkeypatch.setenv(processes.ENV_SWITCH, switch)
+        monkeypatch.setenv("INBETWEEN_HOME", str(tmp_path / f"home{switch}"))
+        monkeypatch.setenv("DAGSTER_HOME", str(tmp_path / f"home{switch}" / "dagster"))
+        report = run_shot(small_shot, tmp_path / f"out{switch}")
+        assert all(s["executed"] for s in report["stages"].values())
+        meta = {}
+        storage = tmp_path / f"home{switch}" / "storage" / report["partition"]
+        for f in sorted(storage.rglob("meta.json")):
+            meta[str(f.parent.relative_to(storage))] = json.loads(f.read_text())["hash"]
+        versions.append(meta)
+    assert versions[0] and versions[0] == versions[1]
