@@ -79,18 +79,25 @@ def _tree_rss(pid: int) -> tuple[int, int]:
 
 # RIFE alone, as a user would run it: a new process, the network loaded from scratch, the keyframes bisected
 # to every output time (ops.evaluation.baselines.rife_direct), the frames written as PNG
-# (runtime: 'torch', or 'onnxruntime' with the export already in the cache, as a user's second run finds it)
+# (runtime: 'torch', or 'onnxruntime' with the export already in the cache, as a user's second run finds it: then,
+# as in the pipeline, without importing torch where the code can)
 _RIFE_DIRECT = ("import inspect, json, sys\n"
                 "from pathlib import Path\n"
-                "from ops.blending.rife import load_rife\n"
                 "from ops.evaluation.baselines import rife_direct\n"
                 "from ops.shotio.image_io import read_image, to_rgba, write_image\n"
                 "from ops.shotio.load import load_shot\n"
                 "shot_dir, out, runtime, cache = json.loads(sys.argv[1])\n"
                 "shot = load_shot(shot_dir)\n"
                 "key0, key1 = (to_rgba(read_image(p)) for p in shot.keyframes)\n"
-                "has = 'runtime' in inspect.signature(load_rife).parameters  # older code: torch only\n"
-                "rife = load_rife(runtime=runtime, cache_dir=cache) if has else load_rife()\n"
+                "try:\n"
+                "    from ops.blending.rife_onnx import open_export  # code from before: torch always\n"
+                "except ImportError:\n"
+                "    open_export = None\n"
+                "rife = open_export(None, cache) if open_export and runtime == 'onnxruntime' and cache else None\n"
+                "if rife is None:\n"
+                "    from ops.blending.rife import load_rife\n"
+                "    has = 'runtime' in inspect.signature(load_rife).parameters  # older code: torch only\n"
+                "    rife = load_rife(runtime=runtime, cache_dir=cache) if has else load_rife()\n"
                 "frames = rife_direct(key0, key1, shot.times, rife)\n"
                 "Path(out).mkdir(parents=True, exist_ok=True)\n"
                 "for i, f in enumerate(frames):\n"

@@ -19,6 +19,7 @@ from scipy.ndimage import gaussian_filter
 
 from ops.blending.image_matrix import build_image_matrix
 from ops.blending.rife import RUNTIMES, Rife, load_rife
+from ops.blending.rife_onnx import limit_threads
 
 
 def smooth_frames(t: int, size: int, seed: int) -> np.ndarray:
@@ -64,7 +65,7 @@ def main() -> None:
     ap.add_argument("--batches", type=int, nargs="+", default=[1], help="pairs per network call to try for the matrix")
     ap.add_argument("--cache", default=None, help="directory of the ONNX export (default: a new temporary one)")
     args = ap.parse_args()
-    torch.set_num_threads(args.threads)
+    limit_threads(args.threads)  # both runtimes
     with tempfile.TemporaryDirectory() as tmp:
         rifes = {}
         for runtime in RUNTIMES:

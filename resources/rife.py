@@ -12,6 +12,7 @@ from pydantic import Field
 
 if TYPE_CHECKING:
     from ops.blending.rife import Rife
+    from ops.blending.rife_onnx import OnnxRife
 
 
 def default_cache_dir() -> Path:
@@ -24,9 +25,17 @@ def default_cache_dir() -> Path:
 
 
 @lru_cache(maxsize=4)
-def _cached_rife(weights_path: str | None, device: str, runtime: str, cache_dir: str) -> Rife:
-    """One loaded network per (weights, device, runtime) per process: loading and checksumming costs ~0.3 s."""
-    from ops.blending.rife import load_rife  # torch is imported only by the stages that run the network
+def _cached_rife(weights_path: str | None, device: str, runtime: str, cache_dir: str) -> Rife | OnnxRife:
+    """One loaded network per (weights, device, runtime) per process: loading and checksumming costs ~0.3 s.
+    ONNX Runtime on the CPU opens the cached export without importing torch; torch is imported only to make the
+    export, or to run the network itself."""
+    if runtime == "onnxruntime" and device == "cpu":
+        from ops.blending.rife_onnx import open_export
+
+        exported = open_export(weights_path, cache_dir)
+        if exported is not None:
+            return exported
+    from ops.blending.rife import load_rife
 
     return load_rife(weights_path, device, runtime, cache_dir)
 
@@ -45,7 +54,7 @@ class RifeResource(dg.ConfigurableResource):
     cache_dir: str | None = Field(None, description="Where the ONNX export is cached; default $INBETWEEN_CACHE, "
                                                     "else $XDG_CACHE_HOME/inbetween, else ~/.cache/inbetween.")
 
-    def load(self) -> Rife:
+    def load(self) -> Rife | OnnxRife:
         """The loaded network, cached per process; raises ops.errors.ShotError on bad weights or device."""
         with _LOADING:  # a stage and the work-ahead loading it at once (assets/ahead.py) load it once
             cache = self.cache_dir or str(default_cache_dir())

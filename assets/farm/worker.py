@@ -84,15 +84,15 @@ def answering(broker: str | None = None, timeout: float = 2.0) -> list[str]:
 
 
 def _limit_threads(threads: int) -> None:
-    import torch
+    from ops.blending.rife_onnx import limit_threads
 
-    torch.set_num_threads(threads)
+    limit_threads(threads)
 
 
 def start_worker(queues: tuple[str, ...] = ("cpu",), concurrency: int = 1, threads: int | None = None,
                  broker: str | None = None, visibility_timeout: float = DEFAULT_VISIBILITY_TIMEOUT,
                  name: str | None = None, loglevel: str = "INFO") -> None:
-    """Run a worker until it is stopped. threads: torch threads per step (default: cores / concurrency)."""
+    """Run a worker until it is stopped. threads: the network's threads per step (default: cores / concurrency)."""
     from celery import signals
 
     unknown = set(queues) - set(QUEUES)

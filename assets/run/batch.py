@@ -1,6 +1,7 @@
 """`batch`: every shot of a root, each in a fresh worker process, a worker that dies being one failed shot."""
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
@@ -23,11 +24,14 @@ from .planning import register
 def _batch_worker(shot_dir: str, out_dir: str, settings: Settings, verbose: bool = False, executor: str = "in_process",
                   exports: tuple[str, ...] = DEFAULT_EXPORTS, fps: float = 12.0
                   ) -> tuple[str, dict | None, ShotFailure | None]:
-    import torch
+    from ops.blending.rife_onnx import limit_threads
+
+    from .. import processes
 
     if not verbose:
         warnings_to_log()
-    torch.set_num_threads(1)  # two shots share two cores
+    limit_threads(1)  # two shots share two cores
+    os.environ[processes.ENV_SWITCH] = "0"  # and each shot's lanes compute on threads: no processes of its own
     name = Path(shot_dir).name
     try:
         return shot_dir, run_shot(shot_dir, out_dir, settings, verbose=verbose, executor=executor, exports=exports,

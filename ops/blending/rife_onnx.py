@@ -1,0 +1,207 @@
+"""RIFE HDv3 midpoints on the CPU without torch: the network's ONNX export run by ONNX Runtime, and the crop,
+warp and blend around it in NumPy (§5.2).
+
+The same interface and the same arithmetic as the torch runtime (ops/blending/rife.py, `Rife`): images are
+(N, C, H, W) float32 arrays, flows (N, 4, H, W) pixels (channels 0-1 from the middle frame to frame 0, 2-3 to
+frame 1), the warp is bilinear with coordinates clamped to the frame (grid_sample's border mode with aligned
+corners), the blend premultiplied. Importing torch costs a run 2-2.5 s of CPU, most of it holding the GIL
+that the lanes' deformations need (docs/performance.md); with the export cached (`open_export`), a run that
+interpolates never imports it.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from ops.blending.crop import Box, coverage_box, cuts_ink, grow
+from ops.blending.rife_files import checked_weights, onnx_file
+
+PAD_MULTIPLE = 32  # as the torch runtime: block0 convolves at 1/16 size
+PAPER = np.array([1.0, 1.0, 1.0, 0.0], np.float32).reshape(1, 4, 1, 1)  # a fully transparent midpoint's colour
+_threads: int | None = None  # ONNX Runtime's intra-op threads (None: the machine's cores)
+
+
+def limit_threads(n: int) -> None:
+    """How many threads the network uses in this process, whichever runtime runs it (`batch` runs two shots on two
+    cores with one each; a farm worker, cores / concurrency): ONNX Runtime's sessions, torch's intra-op threads
+    (set now if torch is imported, else through OMP_NUM_THREADS, which torch reads when it is)."""
+    global _threads
+    _threads = int(n)
+    os.environ["OMP_NUM_THREADS"] = str(int(n))
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(int(n))
+
+
+def pad_to_multiple(x: np.ndarray, multiple: int = PAD_MULTIPLE) -> np.ndarray:
+    """Replicate-pad (N, C, H, W) at the bottom/right so H and W are multiples of `multiple` (a black border
+    would read as ink on the white page)."""
+    h, w = x.shape[2:]
+    ph, pw = -h % multiple, -w % multiple
+    if ph == 0 and pw == 0:
+        return x
+    return np.pad(x, ((0, 0), (0, 0), (0, ph), (0, pw)), mode="edge")
+
+
+def warp(img: np.ndarray, flow: np.ndarray) -> np.ndarray:
+    """Backward warp: out(p) = img(p + flow(p)), bilinear, the sample point clamped to the frame;
+    img (N, C, H, W), flow (N, 2, H, W) pixels -> (N, C, H, W) float32."""
+    n, c, h, w = img.shape
+    x = np.clip(np.arange(w, dtype=np.float32) + flow[:, 0], 0.0, w - 1.0)
+    y = np.clip(np.arange(h, dtype=np.float32)[:, None] + flow[:, 1], 0.0, h - 1.0)
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+    x0, y0 = x0.astype(np.intp), y0.astype(np.intp)
+    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+    flat = np.ascontiguousarray(img.transpose(0, 2, 3, 1)).reshape(n * h * w, c)  # a pixel's channels together
+    base = (np.arange(n) * (h * w)).reshape(n, 1, 1)
+    top = flat[base + y0 * w + x0] * (1 - fx) + flat[base + y0 * w + x1] * fx
+    bottom = flat[base + y1 * w + x0] * (1 - fx) + flat[base + y1 * w + x1] * fx
+    return (top * (1 - fy) + bottom * fy).transpose(0, 3, 1, 2)
+
+
+def over_white(rgba: np.ndarray) -> np.ndarray:
+    """(N, 4, H, W) straight alpha -> C-contiguous (N, 3, H, W) RGB composited over a white page."""
+    a = rgba[:, 3:4]
+    return np.ascontiguousarray(rgba[:, :3] * a + (1 - a), np.float32)
+
+
+def blend_rgba(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Warp and blend (N, 4, H, W) straight RGBA with the network's flow and mask (N, 1, H, W), the weight of
+    a0 -> (N, 4, H, W) straight RGBA; premultiplied, so transparent pixels' colours never bleed into edges."""
+    pre0 = np.concatenate((a0[:, :3] * a0[:, 3:4], a0[:, 3:4]), 1)
+    pre1 = np.concatenate((a1[:, :3] * a1[:, 3:4], a1[:, 3:4]), 1)
+    pre = warp(pre0, flow[:, :2]) * mask + warp(pre1, flow[:, 2:4]) * (1 - mask)
+    alpha = pre[:, 3:4]
+    rgb = np.where(alpha > 1e-6, pre[:, :3] / np.maximum(alpha, 1e-6), np.float32(1.0))  # no colour: paper
+    return np.concatenate((rgb, alpha), 1).astype(np.float32, copy=False)
+
+
+def sigmoid(x: np.ndarray) -> np.ndarray:
+    return (1.0 / (1.0 + np.exp(-x))).astype(np.float32, copy=False)
+
+
+class OnnxRife:
+    """The RIFE network's ONNX export in an ONNX Runtime session, for midpoint interpolation of host arrays."""
+
+    device = "cpu"
+    runtime = "onnxruntime"
+
+    def __init__(self, onnx_path: Path, weights_path: Path):
+        self.onnx_path, self.weights_path = Path(onnx_path), Path(weights_path)
+        self._session, self._session_threads = None, -1
+        self._lock = threading.Lock()
+
+    def _run(self, rgb0: np.ndarray, rgb1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The network on padded (N, 3, H, W) RGB: flow (N, 4, H, W) pixels, mask logits (N, 1, H, W)."""
+        with self._lock:  # made again when limit_threads changed the count
+            if self._session is None or self._session_threads != _threads:
+                import onnxruntime as ort
+
+                options = ort.SessionOptions()
+                options.intra_op_num_threads, options.inter_op_num_threads = _threads or 0, 1
+                options.log_severity_level = 3  # errors only: its warnings about unused initializers are noise
+                self._session = ort.InferenceSession(str(self.onnx_path), options, providers=["CPUExecutionProvider"])
+                self._session_threads = _threads
+            session = self._session
+        flow, logits = session.run(None, {"img0": rgb0, "img1": rgb1})
+        return flow, logits
+
+    # ---- the cells' array type, as image_matrix builds the matrix on the network's device
+
+    def rgba_tensor(self, img: np.ndarray) -> np.ndarray:
+        """(N, H, W, 4) host array -> (N, 4, H, W) float32 (a view)."""
+        return np.asarray(img, np.float32).transpose(0, 3, 1, 2)
+
+    @staticmethod
+    def empty(shape: tuple[int, ...]) -> np.ndarray:
+        return np.empty(shape, np.float32)
+
+    @staticmethod
+    def zeros(shape: tuple[int, ...]) -> np.ndarray:
+        return np.zeros(shape, np.float32)
+
+    @staticmethod
+    def index(ids: np.ndarray) -> np.ndarray:
+        return ids
+
+    @staticmethod
+    def to_host(cells: np.ndarray) -> np.ndarray:
+        """(N, C, H, W) -> (N, H, W, C) float32 host array."""
+        return np.ascontiguousarray(cells.transpose(0, 2, 3, 1), np.float32)
+
+    # ---- interpolation
+
+    def forward_rgb(self, img0: np.ndarray, img1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(N, 3, H, W) RGB in [0, 1] -> mid (N, 3, H, W), flow (N, 4, H, W) pixels, mask (N, 1, H, W); any H, W."""
+        h, w = img0.shape[2:]
+        p0 = pad_to_multiple(np.asarray(img0, np.float32))
+        p1 = pad_to_multiple(np.asarray(img1, np.float32))
+        flow, logits = self._run(np.ascontiguousarray(p0), np.ascontiguousarray(p1))
+        mask = sigmoid(logits)
+        mid = warp(p0, flow[:, :2]) * mask + warp(p1, flow[:, 2:4]) * (1 - mask)
+        crop = (..., slice(0, h), slice(0, w))
+        return mid[crop], flow[crop], mask[crop]
+
+    def midpoint(self, img0: np.ndarray, img1: np.ndarray, crop: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(N, H, W, 4) straight RGBA in [0, 1] pair -> mid (N, H, W, 4) float32 in [0, 1], flow (N, H, W, 4)
+        float32 pixels; see midpoint_tensors for identical pairs and the crop."""
+        if img0.shape != img1.shape or img0.ndim != 4 or img0.shape[3] != 4:
+            raise ValueError(f"midpoint expects two (N, H, W, 4) arrays of equal shape, got {img0.shape} and {img1.shape}")
+        mid, flow = self.midpoint_tensors(self.rgba_tensor(img0), self.rgba_tensor(img1), crop)
+        return self.to_host(mid), self.to_host(flow)
+
+    def midpoint_tensors(self, a0: np.ndarray, a1: np.ndarray, crop: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 4, H, W) straight RGBA -> mid (N, 4, H, W) in [0, 1], flow (N, 4, H, W) pixels.
+
+        A pair of identical images is its own midpoint with zero flow (the network's output for such a pair
+        drifts by up to ~0.2 px). With `crop`, the network sees only the box around the ink of the moving pairs
+        (ops/blending/crop.py), grown until no ink of the midpoint reaches a cut edge; outside it the midpoint
+        is transparent paper and the flow zero."""
+        mid, flow = np.array(a0, np.float32), np.zeros(a0.shape, np.float32)
+        moving = np.nonzero((a0 != a1).reshape(len(a0), -1).any(1))[0]
+        if len(moving) == 0:
+            return mid, flow
+        m0, m1 = a0[moving], a1[moving]
+        shape = tuple(a0.shape[2:])
+        box = coverage_box(np.concatenate((m0[:, 3], m1[:, 3]))) if crop else Box(0, shape[0], 0, shape[1])
+        if box is None:  # no ink in either image: the midpoint of two blank pages
+            mid[moving] = PAPER
+            return mid, flow
+        while True:
+            ys, xs = box.slices
+            m, f = self._net_midpoint(m0[..., ys, xs], m1[..., ys, xs])
+            if box.area == shape[0] * shape[1] or not cuts_ink(m[:, 3], box, shape):
+                break
+            box = grow(box, shape)
+        mid[moving] = PAPER
+        mid[moving, :, ys, xs] = m
+        flow[moving, :, ys, xs] = f
+        return mid, flow
+
+    def _net_midpoint(self, a0: np.ndarray, a1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 4, h, w) straight RGBA pair, every pair moving -> mid (N, 4, h, w) in [0, 1], flow (N, 4, h, w)."""
+        h, w = a0.shape[2:]
+        p0, p1 = pad_to_multiple(np.asarray(a0, np.float32)), pad_to_multiple(np.asarray(a1, np.float32))
+        # flow is estimated on the drawing as seen on paper: ink composited over white
+        flow, logits = self._run(over_white(p0), over_white(p1))
+        mid = blend_rgba(p0, p1, flow, sigmoid(logits))
+        return np.clip(mid[..., :h, :w], 0.0, 1.0), flow[..., :h, :w]
+
+
+def open_export(weights_path: str | Path | None, cache_dir: str | Path) -> OnnxRife | None:
+    """The network's cached ONNX export for these weights (checked as load_rife checks them), or None when it has
+    not been exported yet (ops/blending/rife.py load_rife exports it) or onnxruntime is missing."""
+    path, digest = checked_weights(weights_path)
+    target = onnx_file(cache_dir, digest)
+    if not target.is_file():
+        return None
+    try:
+        import onnxruntime  # noqa: F401  (only whether it is there)
+    except ImportError:
+        return None
+    return OnnxRife(target, path)
+
