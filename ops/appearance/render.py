@@ -22,6 +22,8 @@ shared edges never leave holes and silhouettes grow by at most 0.5 / s px.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
@@ -50,14 +52,19 @@ def sample_centers(shape: tuple[int, int], scale: int) -> tuple[np.ndarray, np.n
 
 
 def rasterize_ids(X: np.ndarray, faces: np.ndarray, order: np.ndarray, shape: tuple[int, int],
-                  scale: int = 1) -> np.ndarray:
-    """X: (n, 2) pixels, faces (m, 3), order (k,) face ids back to front -> (H*s, W*s) int32 face id, -1 empty."""
+                  scale: int = 1, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """X: (n, 2) pixels, faces (m, 3), order (k,) face ids back to front -> (H*s, W*s) int32 face id, -1 empty.
+
+    origin: the (row, column) pixel of the frame that the (H, W) window starts at: the ids are exactly those
+    of the same window of a whole-frame rasterization (the shift is whole samples in fixed point)."""
     h, w = shape
     ids = np.full((h * scale, w * scale), -1, dtype=np.int32)
     order = np.asarray(order, dtype=np.int64)
     if order.size == 0:
         return ids
-    pts = np.round(to_supersampled(X, scale) * (1 << SHIFT)).astype(np.int32)
+    pts = np.round(to_supersampled(X, scale) * (1 << SHIFT)).astype(np.int64)
+    pts -= np.array([origin[1], origin[0]], np.int64) * (scale << SHIFT)
+    pts = pts.astype(np.int32)
     tris = pts[np.asarray(faces)[order]]  # (k, 3, 2) fixed point
     # cv2 fills one colour per call, and every face needs its own id, so the loop is per face;
     # a fill is a few microseconds, ~5 ms for 1500 faces.
@@ -86,17 +93,19 @@ def rest_maps(X: np.ndarray, rest: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return affine_maps(np.asarray(X, np.float64)[faces], np.asarray(rest, np.float64)[faces]).astype(np.float32)
 
 
-def back_map(ids: np.ndarray, A: np.ndarray, scale: int) -> tuple[np.ndarray, np.ndarray]:
-    """ids (H*s, W*s), A (m, 2, 3) rest_maps -> float32 map_x, map_y: for every covered sample, the rest
-    position of its PIXEL's centre under the sample's face (-1e4 where empty).
+def back_map(ids: np.ndarray, A: np.ndarray, scale: int, origin: tuple[int, int] = (0, 0)
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """ids (H*s, W*s) of a window starting at pixel origin (row, column), A (m, 2, 3) rest_maps -> float32 map_x,
+    map_y: for every covered sample, the rest position of its PIXEL's centre under the sample's face (-1e4 where
+    empty).
 
     The supersamples decide which faces cover a pixel and by how much (coverage anti-aliasing); each face
     is read at the pixel centre, so an undeformed template reproduces its texture exactly instead of
     blurring it by the sample spread.
     """
     h, w = ids.shape
-    px = (np.arange(w) // scale).astype(np.float32)[None, :]
-    py = (np.arange(h) // scale).astype(np.float32)[:, None]
+    px = (origin[1] + np.arange(w) // scale).astype(np.float32)[None, :]
+    py = (origin[0] + np.arange(h) // scale).astype(np.float32)[:, None]
     f = np.maximum(ids, 0)
     # gathers of contiguous per-coefficient arrays in float32: the whole grid costs a few ms
     coef = [np.ascontiguousarray(A[:, i, j]).take(f) for i in range(2) for j in range(3)]
@@ -146,6 +155,45 @@ def downsample(image: np.ndarray, scale: int) -> np.ndarray:
 
 
 _REMAP = dict(interpolation=cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
+WINDOW_MARGIN_PX = 2  # a face fills the samples within half a sample of it: 1 px would do
+
+
+@dataclass(frozen=True)
+class Window:
+    """The pixels [y0, y1) x [x0, x1) of a frame that a deformed mesh can cover: a frame is rendered there only
+    (the character covers a fraction of it), and every pixel comes out as in a whole-frame rendering."""
+
+    y0: int
+    y1: int
+    x0: int
+    x1: int
+
+    @classmethod
+    def around(cls, X: np.ndarray, shape: tuple[int, int], margin: int = WINDOW_MARGIN_PX) -> Window:
+        """The box of vertices X (n, 2) pixels, grown by margin and clipped to the (H, W) frame."""
+        X = np.asarray(X, np.float64)
+        h, w = shape
+        if not len(X) or not np.isfinite(X).all():
+            return cls(0, h, 0, w)
+        lo, hi = np.floor(X.min(0)).astype(int) - margin, np.ceil(X.max(0)).astype(int) + margin + 1
+        return cls(int(np.clip(lo[1], 0, h)), int(np.clip(hi[1], 0, h)), int(np.clip(lo[0], 0, w)),
+                   int(np.clip(hi[0], 0, w)))
+
+    @property
+    def empty(self) -> bool:
+        return self.y1 <= self.y0 or self.x1 <= self.x0
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.y1 - self.y0, self.x1 - self.x0
+
+    @property
+    def origin(self) -> tuple[int, int]:
+        return self.y0, self.x0
+
+    @property
+    def slices(self) -> tuple[slice, slice]:
+        return slice(self.y0, self.y1), slice(self.x0, self.x1)
 
 
 class Renderer:
@@ -163,13 +211,14 @@ class Renderer:
         # only then can it lie over itself without folding
         self.slit = len(np.unique(np.round(tpl.rest[used], 6), axis=0)) < len(used)
 
-    def _samples(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], s: int):
-        """Premultiplied RGBA of every supersample (H*s, W*s, 4), the back map, hidden-face mask and face ids behind it."""
+    def _samples(self, X: np.ndarray, pose: np.ndarray, window: Window, s: int):
+        """Premultiplied RGBA of every supersample of the window (h*s, w*s, 4), the back map, hidden-face mask and
+        face ids behind it."""
         tpl = self.textured.template
         order = depth_order(self.textured, pose, self.groups)
-        ids = rasterize_ids(X, tpl.faces, order, shape, s)
+        ids = rasterize_ids(X, tpl.faces, order, window.shape, s, window.origin)
         A = rest_maps(X, tpl.rest, tpl.faces)
-        pre, map_x, map_y, hidden = self._sample_ids(ids, A, s)
+        pre, map_x, map_y, hidden = self._sample_ids(ids, A, s, window.origin)
         if not self.slit:
             return pre, map_x, map_y, hidden, ids
         # the front sheet over itself (a slit limb across the body): a soft edge on top shows the sheet
@@ -180,12 +229,13 @@ class Renderer:
         if not soft.any():
             return pre, map_x, map_y, hidden, ids
         back_to_front = order[::-1]
-        under = rasterize_ids(X, tpl.faces, back_to_front[sheet[back_to_front]], shape, s)
+        under = rasterize_ids(X, tpl.faces, back_to_front[sheet[back_to_front]], window.shape, s, window.origin)
         ys, xs = np.nonzero(soft & (under >= 0) & (under != ids) & sheet.take(np.maximum(under, 0)))
         if len(ys):
             f = under[ys, xs]
             Af = A[f]  # (k, 2, 3): the face beneath, read at the sample's pixel centre as back_map reads
-            px, py = (xs // s).astype(np.float32), (ys // s).astype(np.float32)
+            px = (window.origin[1] + xs // s).astype(np.float32)
+            py = (window.origin[0] + ys // s).astype(np.float32)
             bx = Af[:, 0, 0] * px + Af[:, 0, 1] * py + Af[:, 0, 2]
             by = Af[:, 1, 0] * px + Af[:, 1, 1] * py + Af[:, 1, 2]
             # a neighbour sharing the sample on an edge (the fill is inclusive) reads the same drawing point
@@ -199,9 +249,10 @@ class Renderer:
             pre[ys, xs] += (1.0 - pre[ys, xs, 3:4]) * below
         return pre, map_x, map_y, hidden, ids
 
-    def _sample_ids(self, ids: np.ndarray, A: np.ndarray, s: int):
-        """Premultiplied RGBA, back map and hidden-face mask of face ids (H*s, W*s) under rest maps A (m, 2, 3)."""
-        map_x, map_y = back_map(ids, A, s)
+    def _sample_ids(self, ids: np.ndarray, A: np.ndarray, s: int, origin: tuple[int, int]):
+        """Premultiplied RGBA, back map and hidden-face mask of face ids (h*s, w*s) of a window starting at pixel
+        origin, under rest maps A (m, 2, 3)."""
+        map_x, map_y = back_map(ids, A, s, origin)
         hidden = (ids >= 0) & (self.textured.face_source.take(np.maximum(ids, 0)) > 0)  # the back texture's faces
         # each texture is sampled only where it is selected (the other map points off-texture, giving 0),
         # so the two premultiplied results add up to the composite
@@ -216,7 +267,18 @@ class Renderer:
         bool, distorted (H, W) bool: visible pixels drawn by faces scaled beyond DISTORTION_LIMIT)."""
         shape = tuple(shape) if shape is not None else self.textured.texture.shape[:2]
         s = int(supersample)
-        pre, map_x, map_y, hidden, ids = self._samples(X, pose, shape, s)
+        window = Window.around(X, shape)
+        rgba = np.zeros((*shape, 4), np.float32)
+        inpainted, distorted = np.zeros(shape, bool), np.zeros(shape, bool)
+        if window.empty:
+            return rgba, inpainted, distorted
+        crop = window.slices
+        pre, map_x, map_y, hidden, ids = self._samples(X, pose, window, s)
+        rgba[crop], inpainted[crop], distorted[crop] = self._finish(X, pre, map_x, map_y, hidden, ids, s)
+        return rgba, inpainted, distorted
+
+    def _finish(self, X, pre, map_x, map_y, hidden, ids, s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A window's samples -> its (rgba, inpainted, distorted) pixels, as frame() returns them."""
         rgba = unpremultiply(downsample(pre, s))
         bh, bw = self.textured.back_inpainted.shape
         cx = np.clip(np.rint(map_x).astype(np.int64), 0, bw - 1)
@@ -233,8 +295,12 @@ class Renderer:
     def over_white(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int], supersample: int = 1) -> np.ndarray:
         """The same frame composited over white, (H, W, 3) float32: no round trip through straight alpha."""
         s = int(supersample)
-        pre = downsample(self._samples(X, pose, shape, s)[0], s)
-        return pre[..., :3] + (1.0 - pre[..., 3:4])
+        out = np.ones((*shape, 3), np.float32)
+        window = Window.around(X, shape)
+        if not window.empty:
+            pre = downsample(self._samples(X, pose, window, s)[0], s)
+            out[window.slices] = pre[..., :3] + (1.0 - pre[..., 3:4])
+        return out
 
 
 def render(textured: TexturedTemplate, X: np.ndarray, pose: np.ndarray,

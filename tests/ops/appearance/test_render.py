@@ -7,7 +7,15 @@ import numpy as np
 import pytest
 import triangle
 
-from ops.appearance.render import DISTORTION_LIMIT, Renderer, affine_maps, depth_order, rasterize_ids, render
+from ops.appearance.render import (
+    DISTORTION_LIMIT,
+    Renderer,
+    Window,
+    affine_maps,
+    depth_order,
+    rasterize_ids,
+    render,
+)
 from ops.geometry.mesh import face_stretch
 from ops.types import Template, TexturedTemplate
 
@@ -295,3 +303,33 @@ def test_a_slit_limb_over_the_body_shows_the_body_through_its_soft_edge():
     assert np.allclose(rgba[20:30, 31:36], (0.5, 0.0, 0.5, 1.0), atol=1e-4)
     assert np.allclose(rgba[20:30, 20:26], (1.0, 0.0, 0.0, 0.5), atol=1e-4)  # over nothing it stays translucent
     assert np.allclose(rgba[20:30, 42:50], (0.0, 0.0, 1.0, 1.0), atol=1e-4)
+
+
+@pytest.mark.parametrize("scale", [1, 2, 3])
+def test_a_window_rasterizes_exactly_as_the_whole_frame(scale):
+    """rasterize_ids of a window starting at a pixel origin equals that window of the whole frame's ids."""
+    tpl = make_template(size=32, lo=3.3, pocket=(12.2, 12.2, 20.7, 20.7), step=3.1, max_area=6.0)
+    rng = np.random.default_rng(1)
+    X = tpl.rest * 0.7 + 5.0 + rng.uniform(-0.3, 0.3, tpl.rest.shape)
+    order = np.arange(len(tpl.faces))
+    whole = rasterize_ids(X, tpl.faces, order, (40, 44), scale)
+    window = Window.around(X, (40, 44))
+    assert window.shape[0] < 40 and window.shape[1] < 44  # a real window, not the frame
+    part = rasterize_ids(X, tpl.faces, order, window.shape, scale, window.origin)
+    y0, x0 = window.origin
+    np.testing.assert_array_equal(part, whole[y0 * scale:window.y1 * scale, x0 * scale:window.x1 * scale])
+    outside = whole.copy()
+    outside[y0 * scale:window.y1 * scale, x0 * scale:window.x1 * scale] = -1
+    assert (outside == -1).all()  # nothing of the mesh falls outside its window
+
+
+def test_a_mesh_partly_off_the_frame_and_one_wholly_off_it_render():
+    """The window is clipped to the frame: a mesh half outside renders its inside half; one wholly outside
+    renders nothing (transparent, no inpainted or distorted pixel)."""
+    tpl = make_template()
+    r = Renderer(textured(tpl, 64))
+    pose = np.zeros((2, 3))
+    half = r.frame(tpl.rest + [-40.0, 0.0], pose, (64, 64))[0]
+    assert half[..., 3].max() > 0.5 and half[:, 40:, 3].max() == 0.0
+    gone = r.frame(tpl.rest + [500.0, 0.0], pose, (64, 64))
+    assert not gone[0].any() and not gone[1].any() and not gone[2].any()
