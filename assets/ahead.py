@@ -31,7 +31,6 @@ import logging
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from types import SimpleNamespace
 from typing import Any
 
 from ops.settings import RecordingSettings, Settings
@@ -39,8 +38,9 @@ from ops.types import Shot
 from resources.store import Store
 
 from . import processes
+from .compute import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
 from .graph import shot_graph
-from .stage import AHEAD, STAGE_SPECS, Outcome, StageEnv, run_stage
+from .stages import SHOT_STAGES  # noqa: F401  (declares every stage: STAGE_SPECS)
 
 WORKERS = 2  # the machine's cores: a third thread would only contend
 TABLE_KINDS = ("quality_metrics", "metrics")  # stages of these kinds build pandas tables
@@ -68,11 +68,52 @@ class _Log:
         self.log(logging.ERROR, message)
 
 
+class Resources:
+    """The run's resources (the Definitions'), known from the start or given once the Dagster session is built:
+    the run starts its stages first, and a stage that needs a resource before then waits for it
+    (`context.resources.rife`, as on a Dagster context)."""
+
+    def __init__(self, values: dict[str, Any] | None = None):
+        self._values: dict[str, Any] | None = None
+        self._error: BaseException | None = None
+        self._ready = threading.Event()
+        if values is not None:
+            self.provide(values)
+
+    def provide(self, values: dict[str, Any]) -> None:
+        self._values = dict(values)
+        self._ready.set()
+
+    def fail(self, error: BaseException) -> None:
+        """The session could not be built: a stage waiting for a resource fails with this."""
+        self._error = error
+        self._ready.set()
+
+    @property
+    def known(self) -> dict[str, Any] | None:
+        """The resources, if they have been given (None while pending)."""
+        return self._values if self._ready.is_set() else None
+
+    def get(self) -> dict[str, Any]:
+        self._ready.wait()
+        if self._values is None:
+            raise RuntimeError(f"the run's resources were not built: {self._error}")
+        return self._values
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self.get()[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+
 class _Context:
     """What a compute function may use of its Dagster context while it runs ahead: resources and a log."""
 
-    def __init__(self, resources: dict[str, Any]):
-        self.resources = SimpleNamespace(**resources)
+    def __init__(self, resources: Resources):
+        self.resources = resources
         self.log = _Log()
 
 
@@ -80,8 +121,10 @@ class WorkAhead:
     """The selected stages of one partition's run, computed ahead of their steps on WORKERS threads."""
 
     def __init__(self, partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
-                 store: Store, resources: dict[str, Any], workers: int = WORKERS, parallel: bool = False):
-        """parallel: the stages' op calls run in worker processes (assets/processes.py), whose pool is started."""
+                 store: Store, resources: dict[str, Any] | Resources, workers: int = WORKERS, parallel: bool = False):
+        """resources: the run's, or a Resources given later; parallel: the stages' op calls run in worker
+        processes (assets/processes.py), whose pool is started."""
+        resources = resources if isinstance(resources, Resources) else Resources(resources)
         self.partition, self.names, self.shot, self.sources = partition, set(names), shot, sources
         self.settings, self.store, self.resources = settings, store, resources
         self.graph = shot_graph(shot.n_keys)
@@ -209,11 +252,13 @@ class WorkAhead:
             self.store.discard(name, self.partition)
 
 
-def _warm_ups(stages: list[str], resources: dict[str, Any]) -> list[Callable[[], Any]]:
+def _warm_ups(stages: list[str], resources: Resources) -> list[Callable[[], Any]]:
     """What the stages of a run will import or load when they start, and the Definitions did not."""
     jobs: list[Callable[[], Any]] = []
-    if "rife" in resources and any("rife" in getattr(STAGE_SPECS.get(n), "resources", ()) for n in stages):
-        jobs.append(resources["rife"].load)  # cached per process: the stage gets the loaded network
+    known = resources.known  # pending: the Definitions' resources, which always hold the network
+    if (known is None or "rife" in known) and any("rife" in getattr(STAGE_SPECS.get(n), "resources", ())
+                                                  for n in stages):
+        jobs.append(lambda: resources.get()["rife"].load())  # cached per process: the stage gets the loaded network
     if any(n.rsplit("/", 1)[-1] in TABLE_KINDS for n in stages):
         jobs.append(lambda: importlib.import_module("pandas"))
     return jobs
@@ -228,7 +273,7 @@ def _prepare(job: Callable[[], Any]) -> None:
 
 @contextmanager
 def working_ahead(partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
-                  store: Store, resources: dict[str, Any]) -> Iterator[WorkAhead]:
+                  store: Store, resources: dict[str, Any] | Resources) -> Iterator[WorkAhead]:
     """While open, the steps of `names` for this partition in this process take their outcomes from a WorkAhead."""
     parallel = processes.pool() is not None  # started now: its imports overlap Dagster's start
     ahead = WorkAhead(partition, names, shot, sources, settings, store, resources, parallel=parallel)

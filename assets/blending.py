@@ -20,8 +20,8 @@ from ops.blending.select import select_frames
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix, OutputFrames
 
 from . import progress
+from .compute import StageDef, StageEnv, StageResult, stage
 from .graph import side
-from .stage import StageEnv, StageResult, stage_asset
 
 if TYPE_CHECKING:  # pandas is imported by the stages that build tables, not with the Definitions
     import pandas as pd
@@ -176,15 +176,15 @@ def _shot_frames(env: StageEnv) -> StageResult:
     return StageResult(out, meta, preview.frame_strip(frames))
 
 
-def segment_assets(s: int) -> list:
+def segment_stages(s: int) -> list[StageDef]:
     """Segment s's blending of its two sides."""
     return [
-        stage_asset(f"seg{s}/rife_matrix", _rife_matrix(s), resources=("rife",)),
-        stage_asset(f"seg{s}/quality_metrics", _quality(s)),
-        stage_asset(f"seg{s}/optimal_path", _paths(s), checks={"path_endpoints_and_monotone_t": _check_path}),
-        stage_asset(f"seg{s}/frames", _frames(s)),
+        stage(f"seg{s}/rife_matrix", _rife_matrix(s), resources=("rife",)),
+        stage(f"seg{s}/quality_metrics", _quality(s)),
+        stage(f"seg{s}/optimal_path", _paths(s), checks={"path_endpoints_and_monotone_t": _check_path}),
+        stage(f"seg{s}/frames", _frames(s)),
     ]
 
 
-def shot_assets() -> list:
-    return [stage_asset("inbetween_frames", _shot_frames, group="shot")]
+def shot_stages() -> list[StageDef]:
+    return [stage("inbetween_frames", _shot_frames, group="shot")]

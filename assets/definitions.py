@@ -18,20 +18,17 @@ from pathlib import Path
 import dagster as dg
 
 from ops.settings import Settings
-from ops.shotio.load import MAX_KEYS
 from ops.shotio.versions import source_versions
 from resources.settings import PipelineSettings
 from resources.shots import ShotsResource
 from resources.storage import StageStore
 
-from .blending import segment_assets, shot_assets
 from .codeversion import project_fingerprint
-from .evaluation import evaluation_assets
-from .geometry import lane_assets, side_assets
-from .graph import EVAL_STAGES, segment_keys, union_sources
+from .graph import EVAL_STAGES, union_sources
 from .home import home, shots_root
 from .resource_config import resource_config, resource_overrides
-from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets
+from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets, stage_asset
+from .stages import EVALUATION_STAGES, SHOT_STAGES
 
 # the sources this process defines its stages from (assets/run/ compares it with the files on disk)
 LOADED_FINGERPRINT = project_fingerprint()
@@ -69,11 +66,9 @@ def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:
 
 
 SOURCE_ASSETS = source_assets(_versions)
-# every stage any shot can have: a lane per key, each segment's two sides and its blending (assets/graph.py)
-SHOT_ASSETS = [*(a for k in range(MAX_KEYS) for a in lane_assets(k)),
-               *(a for s in range(MAX_KEYS - 1) for k in segment_keys(s, MAX_KEYS) for a in side_assets(s, k)),
-               *(a for s in range(MAX_KEYS - 1) for a in segment_assets(s)), *shot_assets()]
-STAGE_ASSETS = [*SHOT_ASSETS, *evaluation_assets()]
+# every stage any shot can have: a lane per key, each segment's two sides and its blending (assets/stages.py)
+SHOT_ASSETS = [stage_asset(d) for d in SHOT_STAGES]
+STAGE_ASSETS = [*SHOT_ASSETS, *(stage_asset(d) for d in EVALUATION_STAGES)]
 ALL_ASSETS = [*SOURCE_ASSETS, *STAGE_ASSETS]
 SHOT_SELECTION = dg.AssetSelection.assets(*(k for a in SHOT_ASSETS for k in a.keys))
 

@@ -32,8 +32,8 @@ from ops.shotio.image_io import read_image, to_rgba
 from ops.shotio.load import ground_truth_files
 from ops.types import BlendPaths, ImageMatrix, OutputFrames, Shot
 
+from .compute import StageDef, StageEnv, StageResult, stage
 from .graph import side
-from .stage import StageEnv, StageResult, stage_asset
 
 
 def _join(parts: list[np.ndarray]) -> np.ndarray:
@@ -185,9 +185,9 @@ def _metrics(env: StageEnv) -> StageResult:
     return StageResult(table, meta, strip)
 
 
-def evaluation_assets() -> list:
+def evaluation_stages() -> list[StageDef]:
     return [
-        stage_asset("evaluation/rife_direct", _rife_direct, resources=("rife",), group="evaluation"),
-        stage_asset("evaluation/single_layer", _single_layer, resources=("rife", "inpainter"), group="evaluation"),
-        stage_asset("evaluation/metrics", _metrics, resources=("rife",), group="evaluation"),
+        stage("evaluation/rife_direct", _rife_direct, resources=("rife",), group="evaluation"),
+        stage("evaluation/single_layer", _single_layer, resources=("rife", "inpainter"), group="evaluation"),
+        stage("evaluation/metrics", _metrics, resources=("rife",), group="evaluation"),
     ]

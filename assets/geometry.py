@@ -16,8 +16,8 @@ from ops.segmentation.refine import refine_masks
 from ops.shotio.image_io import read_image
 from ops.types import DeformedSequence, Masks, RefinedMasks, Shot, Template, TexturedTemplate
 
+from .compute import StageDef, StageEnv, StageResult, stage
 from .graph import side
-from .stage import StageEnv, StageResult, stage_asset
 
 
 def _mask_image(path: str, field: str) -> np.ndarray:
@@ -181,19 +181,19 @@ def _check_no_folds(seq: DeformedSequence, env: StageEnv) -> tuple[bool, str]:
     return sum(folds) == 0, f"folded triangles per frame: {folds}"
 
 
-def lane_assets(k: int) -> list:
+def lane_stages(k: int) -> list[StageDef]:
     """Key k's lane, shared by the segments beside it."""
     lane = f"key{k}"
     return [
-        stage_asset(f"{lane}/masks", _masks(k), checks={"masks_nonempty_in_frame": _check_masks, "occlusion_inside_foreground": _check_occlusion_inside}),
-        stage_asset(f"{lane}/refined_masks", _refined(k), checks={"occlusion_inside_foreground": _check_occlusion_inside}),
-        stage_asset(f"{lane}/template", _template(k), checks={"no_folded_triangles_at_rest": _check_template_folds}),
+        stage(f"{lane}/masks", _masks(k), checks={"masks_nonempty_in_frame": _check_masks, "occlusion_inside_foreground": _check_occlusion_inside}),
+        stage(f"{lane}/refined_masks", _refined(k), checks={"occlusion_inside_foreground": _check_occlusion_inside}),
+        stage(f"{lane}/template", _template(k), checks={"no_folded_triangles_at_rest": _check_template_folds}),
     ]
 
 
-def side_assets(s: int, k: int) -> list:
+def side_stages(s: int, k: int) -> list[StageDef]:
     """Key k's side of segment s: its texture for the segment and its deformation through the segment's poses."""
     return [
-        stage_asset(side(s, k, "textured_template"), _textured(s, k), resources=("inpainter",)),
-        stage_asset(side(s, k, "deformed_frames"), _deformed(s, k), checks={"no_folded_triangles": _check_no_folds}),
+        stage(side(s, k, "textured_template"), _textured(s, k), resources=("inpainter",)),
+        stage(side(s, k, "deformed_frames"), _deformed(s, k), checks={"no_folded_triangles": _check_no_folds}),
     ]

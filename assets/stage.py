@@ -1,106 +1,41 @@
-"""One factory that turns a pure compute function into a cached, checked Dagster asset.
+"""The Dagster side of a stage: one factory that turns a declared stage (assets/compute.py, StageDef) into a cached,
+checked, partitioned asset, and the observable sources.
 
-Every stage: records its provenance with its output (its parents' data
-versions, the settings it read, its code record), skips its work when that
-provenance equals what the inputs are now and the stored output is intact,
-returns the content hash of its output as its data version, attaches a
-preview image and counts, and reports its asset checks. Freshness is read
-from the store, not from Dagster's event log (assets/provenance.py), so the
-run planner can decide it without starting Dagster.
+A stage's step runs it with `run_stage` (or takes its outcome from the work-ahead, which has computed it
+already), then returns its output with its data version (the content hash: an identical rerun does not make
+its children stale), its counts and preview as metadata, and its asset checks. Freshness is read from the
+store, not from Dagster's event log (assets/provenance.py), so the run planner decides it without Dagster.
 """
 from __future__ import annotations
 
-import base64
 import json
-import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from functools import cached_property
 from typing import Any
 
-import cv2
 import dagster as dg
 import numpy as np
 
 from ops.settings import RecordingSettings, Settings
-from ops.shotio.image_io import read_image, to_rgba, write_image
 from ops.shotio.versions import source_versions
-from ops.types import Shot
 from resources.inpainter import InpainterResource
 from resources.rife import RifeResource
 from resources.shots import ShotsResource
 from resources.storage import DIGEST_KEY, PROVENANCE_KEY
-from resources.store import Store, content_hash
 
-from . import processes, progress
-from .codeversion import code_record, code_version
+from . import progress
+from .codeversion import code_version
+from .compute import STAGE_SPECS, MissingParents, StageDef, StageEnv, run_stage, working_ahead
 from .graph import shot_graph, union_graph, union_sources
-from .provenance import differences, parent_versions, provenance
-from .resource_config import resource_config
+from .provenance import parent_versions
 
 PARTITIONS = dg.DynamicPartitionsDefinition(name="shots")
 
-# the resources a stage may declare, by key: their modules' code is part of the stage's code record
+# the resources a stage may declare, by key (assets/compute.py names their modules, for the code records)
 RESOURCE_TYPES: dict[str, type] = {"rife": RifeResource, "inpainter": InpainterResource}
 
 
 def asset_key(name: str) -> dg.AssetKey:
     return dg.AssetKey(name.split("/"))
-
-
-@dataclass
-class StageResult:
-    value: Any
-    metadata: dict = field(default_factory=dict)  # counts, energies, ... (JSON-able scalars)
-    preview: np.ndarray | None = None  # (h, w, 3) float32 RGB in [0, 1]
-
-
-@dataclass
-class StageEnv:
-    """What a compute function may read: the shot, its parents' outputs, settings, resources."""
-
-    context: dg.AssetExecutionContext
-    partition: str
-    store: Store
-    shots: ShotsResource
-    settings: RecordingSettings
-    memory: dict[str, Any] = field(default_factory=dict)  # outputs this run already computed, by stage
-    stage: str = ""  # the stage this environment computes
-    parallel: bool = False  # op calls go to worker processes (assets/processes.py): the work-ahead's runs
-
-    @cached_property
-    def shot(self) -> Shot:
-        return self.shots.load(self.partition)
-
-    def read(self, name: str) -> Any:
-        if name in self.memory:  # computed earlier in this run: no read back from disk
-            return self.memory[name]
-        return self.store.read(name, self.partition)
-
-    def drawing(self, k: int) -> np.ndarray:
-        """(H, W, 4) float32 keyframe k."""
-        return to_rgba(read_image(self.shot.keyframes[k], f"keyframes[{k}]"))
-
-    def resource(self, name: str) -> Any:
-        return getattr(self.context.resources, name)
-
-    def log(self, message: str) -> None:
-        self.context.log.info(message)
-
-    def offload(self, fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        """fn(*args, **kwargs) for an ops function fn: in a worker process when this run has them."""
-        return processes.run(fn, *args, **kwargs) if self.parallel else fn(*args, **kwargs)
-
-
-def preview_markdown(img: np.ndarray, max_width: int = 640) -> str:
-    """Inline PNG for the Dagster UI."""
-    img = np.clip(img, 0, 1)
-    if img.shape[1] > max_width:
-        s = max_width / img.shape[1]
-        img = cv2.resize(img, (max_width, max(1, int(img.shape[0] * s))), interpolation=cv2.INTER_AREA)
-    bgr = cv2.cvtColor((img[..., :3] * 255 + 0.5).astype(np.uint8), cv2.COLOR_RGB2BGR)
-    ok, buf = cv2.imencode(".png", bgr)
-    return f"![preview](data:image/png;base64,{base64.b64encode(buf.tobytes()).decode()})"
 
 
 def _metadata_value(v: Any) -> Any:
@@ -115,123 +50,33 @@ def _metadata_value(v: Any) -> Any:
     return dg.MetadataValue.text(str(v))
 
 
-Check = Callable[[Any, StageEnv], tuple[bool, str]]
-
-
-@dataclass(frozen=True)
-class StageSpec:
-    """What the planner needs of a stage without running it: its code record, and what it was derived from."""
-
-    name: str
-    code: dict[str, str]  # file -> source hash (assets/codeversion.py)
-    functions: tuple[Callable, ...]  # the compute function and the StageEnv methods it reads through
-    resource_modules: tuple[str, ...]  # modules of the resources it declares
-    resources: tuple[str, ...] = ()  # the keys of those resources
-
-    @property
-    def compute(self) -> Callable[[StageEnv], StageResult]:
-        return self.functions[0]
-
-
-# stage name -> spec, filled as the asset modules define their stages
-STAGE_SPECS: dict[str, StageSpec] = {}
-
-
-def stage_spec(name: str, compute: Callable, resources: tuple[str, ...]) -> StageSpec:
-    """Code record of a stage: its compute function, the StageEnv it reads through, its resources' modules."""
-    functions = (compute, *[v for v in vars(StageEnv).values() if callable(v)], StageEnv.shot.func)
-    modules = tuple(RESOURCE_TYPES[r].__module__ for r in resources)
-    return StageSpec(name, _code_record(compute.__code__, functions, modules), functions, modules, tuple(resources))
-
-
-_RECORDS: dict[tuple, dict[str, str]] = {}
-
-
-def _code_record(code, functions: tuple[Callable, ...], modules: tuple[str, ...]) -> dict[str, str]:
-    """code_record, once per compute function's code: every key's lane (a closure over k) runs the same code."""
-    key = (code, modules)
-    if key not in _RECORDS:
-        _RECORDS[key] = code_record(functions, modules)
-    return _RECORDS[key]
-
-
-@dataclass
-class Outcome:
-    """What running a stage gave: its output (value None when the stored one still holds), and its record."""
-
-    version: str  # content hash of the output: the data version
-    cached: bool  # the stored output's provenance equals the inputs': nothing computed, nothing to write
-    result: StageResult
-    seconds: float
-    record: dict | None  # provenance to store with a new output (None when cached)
-    preview_md: str | None  # the preview as inline markdown for the UI
-
-
-def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings: Settings) -> Outcome:
-    """Compute stage `name` unless its stored output was made from exactly these parents' data versions, the
-    settings it read and its code; write its preview. Pure of Dagster's run machinery: it may run ahead of the
-    step that records it (assets/ahead.py)."""
+def stage_asset(stage: StageDef):
+    """A partitioned asset of the declared stage, whose lineage is its parents in any shot (assets.graph.union_graph)."""
+    name, compute, checks, resources, group = stage.name, stage.compute, stage.checks, stage.resources, stage.group
     spec = STAGE_SPECS[name]
-    missing = [p for p, v in parents.items() if v is None]
-    if missing:
-        raise dg.Failure(f"{name}: parents {missing} have no stored output for shot {env.partition!r}; "
-                         "materialize them first (the CLI selects them)")
-    progress.emit(env.partition, name, "start")
-    start = time.perf_counter()
-    version, recorded = env.store.provenance(name, env.partition)
-    resources = {r: resource_config(env.resource(r)) for r in spec.resources}
-    cached = version is not None and not differences(recorded, parents, settings, spec.code, resources)
-    record = None
-    if cached:  # identical inputs and intact output: nothing to compute, nothing to write
-        result = StageResult(None, {"warnings": (recorded or {}).get("warnings", [])})
-    else:
-        result = spec.compute(env)
-        version = content_hash(result.value)
-        record = {**provenance(parents, env.settings.read, spec.code, resources),
-                  "warnings": list(result.metadata.get("warnings", []))}
-    seconds = time.perf_counter() - start
-    preview_md = None
-    if result.preview is not None:
-        write_image(env.store.preview_path(name, env.partition), result.preview)
-        preview_md = preview_markdown(result.preview)
-    return Outcome(version, cached, result, seconds, record, preview_md)
-
-
-# this process's work-ahead per partition while a run executes (assets/ahead.py registers itself here)
-AHEAD: dict[str, Any] = {}
-
-
-def working_ahead(partition: str, name: str) -> Any:
-    """The work-ahead that computes stage `name` of this partition's current run in this process, or None."""
-    ahead = AHEAD.get(partition)
-    return ahead if ahead is not None and name in ahead.names else None
-
-
-def stage_asset(name: str, compute: Callable[[StageEnv], StageResult], *, checks: dict[str, Check] | None = None,
-                resources: tuple[str, ...] = (), group: str | None = None, description: str | None = None):
-    """A partitioned asset `name` whose lineage is its parents in any shot (assets.graph.union_graph)."""
-    checks = checks or {}
-    STAGE_SPECS[name] = spec = stage_spec(name, compute, resources)
     key = asset_key(name)
     check_specs = [dg.AssetCheckSpec(c, asset=key) for c in checks]
     group = group or name.split("/")[0]
 
     @dg.asset(key=key, deps=[asset_key(p) for p in union_graph()[name]], partitions_def=PARTITIONS,
               io_manager_key="io_manager", required_resource_keys={"io_manager", "shots", "settings", *resources},
-              check_specs=check_specs, group_name=group.replace("/", "_"), description=description or compute.__doc__,
+              check_specs=check_specs, group_name=group.replace("/", "_"), description=compute.__doc__,
               code_version=code_version(spec.code))
     def _asset(context):
         partition = context.partition_key
         settings: Settings = context.resources.settings.values()
         ahead = working_ahead(partition, name)
-        if ahead is not None:  # this process's run computes its stages ahead of the steps
-            outcome, env = ahead.outcome(name, context)
-        else:
-            env = StageEnv(context, partition, context.resources.io_manager.files, context.resources.shots,
-                           RecordingSettings(settings), stage=name)
-            parents = shot_graph(env.shot.n_keys).parents[name]
-            outcome = run_stage(name, env, parent_versions(parents, partition, env.store, source_versions(env.shot)),
-                                settings)
+        try:
+            if ahead is not None:  # this process's run computes its stages ahead of the steps
+                outcome, env = ahead.outcome(name, context)
+            else:
+                env = StageEnv(context, partition, context.resources.io_manager.files, context.resources.shots,
+                               RecordingSettings(settings), stage=name)
+                parents = shot_graph(env.shot.n_keys).parents[name]
+                outcome = run_stage(name, env, parent_versions(parents, partition, env.store,
+                                                               source_versions(env.shot)), settings)
+        except MissingParents as e:
+            raise dg.Failure(str(e)) from None
         result, cached, seconds = outcome.result, outcome.cached, outcome.seconds
         warnings = list(result.metadata.get("warnings", []))
         meta = {DIGEST_KEY: dg.MetadataValue.text(outcome.version), "seconds": dg.MetadataValue.float(round(seconds, 3)),

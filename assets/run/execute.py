@@ -22,7 +22,7 @@ from ops.shotio.load import load_shot
 from ops.shotio.versions import source_versions
 from ops.types import Shot
 
-from .. import progress
+from .. import processes, progress
 from ..graph import EVAL_STAGES, shot_graph
 from .errors import StageFailed
 from .locks import shot_lock
@@ -37,25 +37,33 @@ EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (ass
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
             executor: str = "in_process") -> dict[str, dict]:
     """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
-    from ..ahead import working_ahead
-
-    session = Session.get(settings)
     if executor == "celery":
+        session = Session.get(settings)
         session.ensure_partition(p.partition)
         session.observe(p.partition, p.sources)
         result = session.materialize_farm(p.shot.root, p.partition, names, log_path(p.partition), verbose)
         return stage_timings(result.all_events)
+    processes.pool()  # the workers' fork server imports the ops while this process imports the stages
+    from ..ahead import Resources, working_ahead
+
     executed: dict[str, dict] = {}
 
     def on_event(ev: dict) -> None:
         if ev["event"] == "done" and ev["partition"] == p.partition:
             executed[ev["stage"]] = {"seconds": ev["seconds"], "cached": ev["cached"]}
 
-    # the stages compute on two threads as soon as their parents have, ahead of the steps that record them
-    # (from before the instance opens: their outputs are stored and recorded by their steps alone);
-    # the sources' versions are the ones the plan observed (not hashed again per step)
+    # the stages compute as soon as their parents have, ahead of the steps that record them, from before
+    # Dagster is imported: their outputs are stored and recorded by their steps alone, and a stage that needs a
+    # resource waits for the Definitions'. The sources' versions are the ones the plan observed.
+    resources = Resources()
     with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
-                                                  session.resources):
+                                                  resources):
+        try:
+            session = Session.get(settings)
+        except BaseException as e:
+            resources.fail(e)
+            raise
+        resources.provide(session.resources)
         session.ensure_partition(p.partition)
         session.observe(p.partition, p.sources)
         session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)

@@ -81,15 +81,15 @@ def _definition_facts_locked() -> dict:
 
 
 def _import_facts() -> dict:
-    from ..stage import RESOURCE_TYPES
+    quiet_dagster_warnings()
+    from ..stage import RESOURCE_TYPES  # the resources' classes (Dagster's): their defaults are code
 
     return {"records": _import_code_records(), "resources": {k: resource_config(t()) for k, t in RESOURCE_TYPES.items()}}
 
 
 def _import_code_records() -> dict[str, dict[str, str]]:
-    quiet_dagster_warnings()
-    from .. import definitions  # noqa: F401  (defining the assets fills STAGE_SPECS)
-    from ..stage import STAGE_SPECS
+    from .. import stages  # noqa: F401  (declaring the stages fills STAGE_SPECS; no Dagster needed)
+    from ..compute import STAGE_SPECS
 
     return {name: spec.code for name, spec in STAGE_SPECS.items()}
 

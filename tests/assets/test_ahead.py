@@ -5,7 +5,7 @@ import threading
 from types import SimpleNamespace
 
 import assets.ahead as ahead
-from assets.stage import Outcome, StageResult
+from assets.compute import Outcome, StageResult
 from ops.settings import Settings
 
 TWO_KEYS = SimpleNamespace(n_keys=2)  # all the work-ahead reads of the shot: its graph

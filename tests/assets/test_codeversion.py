@@ -14,7 +14,7 @@ import pytest
 
 from assets import definitions  # noqa: F401  (defines the stages)
 from assets.codeversion import ROOT, ImportGraph, code_record, code_version
-from assets.stage import STAGE_SPECS
+from assets.compute import STAGE_SPECS
 
 BASE = ImportGraph()
 
