@@ -225,7 +225,8 @@ def _triangles(rig: Rig, maps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     src = np.stack([xs, ys], 1)[:, None, :] + corner[None]  # (N, 4, 2)
     cy = (ys[:, None] + np.array([0, 0, 1, 1])[None]).ravel()
     cx = (xs[:, None] + np.array([0, 1, 1, 0])[None]).ravel()
-    w = rig.corner_weights[:, cy, cx].T.reshape(len(xs), 4, -1)  # (N, 4, B)
+    w = rig.corner_weights[:, cy, cx].T.reshape(len(xs), 4, -1).astype(np.float64)  # (N, 4, B)
+    w /= w.sum(-1, keepdims=True)  # to float64's precision: at rest every corner stays where it is
     blended = np.einsum("nvk,kab->nvab", w, maps)  # (N, 4, 2, 3): linear blend skinning, one map per corner
     dst = np.einsum("nvab,nvb->nva", blended[..., :2], src) + blended[..., 2]
     tri = np.array([[0, 1, 2], [0, 2, 3]])
