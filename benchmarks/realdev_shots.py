@@ -1,6 +1,6 @@
 """Real drawings, puppeted: two-key shots whose texture is a photographed child's drawing, with true in-betweens.
 
-    python benchmarks/realdev_shots.py REALDEV_DIR OUT_DIR [--only NAME ...]
+    python benchmarks/realdev_shots.py REALDEV_DIR OUT_DIR [--only char1:dab char4:wave_hello:redrawn ...]
     python -m assets.cli eval OUT_DIR --out EVAL_DIR          # then score ours, RIFE-direct and the rest
 
 REALDEV_DIR holds AnimatedDrawings' example characters and clips (facebookresearch/AnimatedDrawings, MIT): either
