@@ -19,7 +19,7 @@
    without one), per stage seconds before and after and their ratio.
 
     python benchmarks/bench_pipeline.py [--shots data_samples] [--only arm_cross ...] [--no-scaling] [--no-batch]
-                                        [--add-junctions SHOT | --no-add-junctions]
+                                        [--add-junctions SHOT | --no-add-junctions] [--rounds N]
 
 The machine is shared and its wall times are noisy: CPU seconds are printed beside them, and the load average
 before and after. Targets (issue 11, measured on a machine ~2.5x faster than the 2-core one here): unchanged
@@ -168,19 +168,32 @@ def move_key1_junction(shot: Path) -> bool:
     return True
 
 
-def run_sample(src: Path, tmp: Path) -> dict:
-    """Cold, warm and after-edit runs of a copy of one shot; their numbers and the cold run's report."""
-    shot = shutil.copytree(src, tmp / "shots" / src.name)
-    home, out = tmp / f"home-{src.name}", tmp / f"out-{src.name}"
-    cold = cli(["run", str(shot), "--out", str(out)], home)
-    report = json.loads((out / "report.json").read_text())
-    warm = cli(["run", str(shot), "--out", str(tmp / f"out2-{src.name}")], home)
-    edit = cli(["run", str(shot), "--out", str(out)], home) if move_key1_junction(shot) else None
-    edited = json.loads((out / "report.json").read_text()) if edit else None
-    rife = rife_direct(shot, tmp / f"rife-{src.name}", tmp / f"home-rife-{src.name}")
-    rife_ort = rife_direct(shot, tmp / f"rife-ort-{src.name}", tmp / f"home-rife-{src.name}", "onnxruntime")
-    return {"cold": cold, "warm": warm, "edit": edit, "rife": rife, "rife_ort": rife_ort, "report": report,
-            "edited": edited}
+def run_sample(src: Path, tmp: Path, rounds: int = 1) -> dict:
+    """Cold, warm and after-edit runs of a copy of one shot, and RIFE-direct; their numbers and the cold run's report.
+
+    With rounds > 1 the cold run, RIFE-direct (torch, ONNX Runtime) and the edit are repeated in turn, each round
+    in a fresh INBETWEEN_HOME, so that each ratio divides runs made seconds apart; the median round (by cold/Ro)
+    is the one reported, and every round's ratios are kept ("rounds")."""
+    runs = []
+    for i in range(rounds):
+        shot = shutil.copytree(src, tmp / f"shots-{i}" / src.name)
+        home, out = tmp / f"home-{src.name}-{i}", tmp / f"out-{src.name}-{i}"
+        cold = cli(["run", str(shot), "--out", str(out)], home)
+        report = json.loads((out / "report.json").read_text())
+        warm = cli(["run", str(shot), "--out", str(tmp / f"out2-{src.name}-{i}")], home)
+        rife = rife_direct(shot, tmp / f"rife-{src.name}-{i}", tmp / f"home-rife-{src.name}")
+        rife_ort = rife_direct(shot, tmp / f"rife-ort-{src.name}-{i}", tmp / f"home-rife-{src.name}", "onnxruntime")
+        edit = cli(["run", str(shot), "--out", str(out)], home) if move_key1_junction(shot) else None
+        edited = json.loads((out / "report.json").read_text()) if edit else None
+        runs.append({"cold": cold, "warm": warm, "edit": edit, "rife": rife, "rife_ort": rife_ort, "report": report,
+                     "edited": edited})
+    ranked = sorted(runs, key=lambda r: r["cold"]["wall"] / r["rife_ort"]["wall"])
+    median = dict(ranked[len(ranked) // 2])
+    median["rounds"] = [{"cold/R": r["cold"]["wall"] / r["rife"]["wall"], "cold/Ro": r["cold"]["wall"] / r["rife_ort"]["wall"],
+                         "edit/R": r["edit"]["wall"] / r["rife"]["wall"] if r["edit"] else float("nan"),
+                         "edit/Ro": r["edit"]["wall"] / r["rife_ort"]["wall"] if r["edit"] else float("nan")}
+                        for r in runs]
+    return median
 
 
 def critical_path(stages: dict[str, dict]) -> float:
@@ -219,6 +232,11 @@ def print_samples(results: dict[str, dict]) -> None:
               f"{c['wall'] / ro['wall']:7.2f} {edit_ratio_o} | {c['rss_max'] / 2**20:6.0f}")
     print("X/R: run X's wall seconds over RIFE-direct's (a new process: the network loaded, the keys bisected to "
           "every output time) on the same shot in this run, the network run by torch (R) or ONNX Runtime (Ro)")
+    for name, r in results.items():
+        if len(r.get("rounds", [])) > 1:
+            cols = ("cold/R", "cold/Ro", "edit/R", "edit/Ro")
+            print(f"{name}: {len(r['rounds'])} rounds (the median round, by cold/Ro, above): "
+                  + "; ".join(f"{c} " + " ".join(f"{x[c]:.2f}" for x in r["rounds"]) for c in cols))
 
 
 def print_stage_split(results: dict[str, dict]) -> None:
@@ -326,6 +344,8 @@ def main() -> None:
     ap.add_argument("--no-batch", action="store_true")
     ap.add_argument("--add-junctions", default="arm_cross", help="shot of the 'adding 5 T-junctions' case")
     ap.add_argument("--no-add-junctions", action="store_true")
+    ap.add_argument("--rounds", type=int, default=1, help="repeat each sample's cold run, RIFE-direct and edit in turn "
+                    "this many times (a shared machine: the median round is reported, every round's ratios printed)")
     args = ap.parse_args()
     print(f"{load()}, {os.cpu_count()} CPUs; times in seconds; cpu = user + sys of the process")
     with tempfile.TemporaryDirectory() as tmp:
@@ -333,7 +353,7 @@ def main() -> None:
         results = {}
         for name in args.only:
             src = Path(args.shots) / name
-            results[name] = run_sample(src, tmp)
+            results[name] = run_sample(src, tmp, args.rounds)
             results[name]["size"] = size_of(src)
             print(f"  {name} done ({load()})", file=sys.stderr, flush=True)
         print_samples(results)
