@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .bodies3d import UP, Body, make_body, rotate, two_bone_ik, unit
+from .bodies3d import UP, Body, make_body, rotate, unit
 from .looks3d import make_look3d
 from .occlusion3d import sample_seed
 from .redraw import draw_redraw
@@ -45,7 +45,6 @@ from .shots3d import (
     redrawn_motion,
     turn_between,
 )
-from .solids import Solid
 
 REDRAWN_INDEX_BASE = 2_000_000  # test-split indices past the default set's (1 000 000 + i)
 STREAM = 47
@@ -59,7 +58,7 @@ REDRAWN_PLAN = (
     ("round", "flat", "arm_over_belly", (1.0, 0.0)),
     ("creature", "flat", "arm_over_belly", (1.0,)),
     ("thin", "pencil", "fold_arms", (1.0,)),
-    ("round", "ink", "fold_arms", (1.0,)),
+    ("thin", "ink", "fold_arms", (1.0,)),
     ("thin", "watercolour", "fold_arms", (0.5,)),
     ("creature", "colour_lines", "side_walk", (1.0,)),
 )
@@ -115,21 +114,6 @@ def _radius(body: Body, joint: str) -> float:
     return max(float(max(s.radii)) for s in body.solids if s.bone == b and s.kind == "limb")
 
 
-def _exit(s: Solid, origin: np.ndarray, d: np.ndarray) -> float | None:
-    """How far from `origin` (3,) along the unit direction d (3,) the ray leaves ellipsoid s (None: misses)."""
-    m = s.axes / np.asarray(s.radii)[:, None]
-    o, v = m @ (origin - s.centre), m @ d
-    a, b, c = float(v @ v), 2 * float(o @ v), float(o @ o) - 1
-    disc = b * b - 4 * a * c
-    return None if disc <= 0 else (-b + math.sqrt(disc)) / (2 * a)
-
-
-def _surface(body: Body, names: tuple[str, ...], origin: np.ndarray, d: np.ndarray) -> float:
-    """The farthest exit along d from origin of the named ellipsoids (0 where none is hit)."""
-    hits = [_exit(s, origin, d) for s in body.solids if s.name in names and s.kind == "ellipsoid"]
-    return max([h for h in hits if h is not None], default=0.0)
-
-
 def _clear(body: Body, names: tuple[str, ...], q: np.ndarray, margin: float) -> bool:
     """True when the point q (3,) lies outside every named ellipsoid by about `margin` or more."""
     for s in body.solids:
@@ -138,6 +122,42 @@ def _clear(body: Body, names: tuple[str, ...], q: np.ndarray, margin: float) -> 
             if float(np.linalg.norm(m @ (q - s.centre))) < 1.0:
                 return False
     return True
+
+
+def _across(body: Body, names: tuple[str, ...], elbow: np.ndarray, way: np.ndarray, fwd: np.ndarray, length: float,
+            radius: float, beneath: list[tuple[tuple[np.ndarray, np.ndarray], float]] = ()
+            ) -> tuple[np.ndarray, np.ndarray] | None:
+    """A forearm from `elbow` (3,) along `way` (3,), turned forward (fwd) no more than it takes to clear the named
+    ellipsoids by its radius and to pass in front of the forearms beneath it ((elbow, hand), radius) by both
+    radii: (elbow, hand); None when even a forearm held straight forward does not."""
+    for f in np.linspace(0.0, 2.5, 26):
+        hand = elbow + length * unit(way + fwd * f)
+        pts = [elbow + a * (hand - elbow) for a in np.linspace(0.2, 1.0, 17)]
+        if all(_clear(body, names, q, radius) for q in pts) and all(
+                _in_front(q, *seg, radius + r, fwd) for q in pts for seg, r in beneath):
+            return elbow, hand
+    return None
+
+
+def _beside(body: Body, names: tuple[str, ...], shoulder: np.ndarray, length: float, down: np.ndarray, out: np.ndarray,
+            radius: float) -> np.ndarray:
+    """An elbow (3,) `length` from the shoulder toward `down` (3,), turned along `out` (3,) no more than it takes
+    to clear the named ellipsoids by `radius` (so the upper arm hangs beside or before a round body, not in it)."""
+    for o in np.linspace(0.0, 2.0, 21):
+        elbow = shoulder + length * unit(down + out * o)
+        if _clear(body, names, elbow, radius):
+            break
+    return elbow
+
+
+def _in_front(q: np.ndarray, a: np.ndarray, b: np.ndarray, gap: float, fwd: np.ndarray) -> bool:
+    """True when the point q (3,) is at least `gap` in front (along fwd) of the segment from a to b wherever it
+    lies within `gap` of it seen from the front, or farther than that from it sideways."""
+    t = np.linspace(0.0, 1.0, 33)[:, None]
+    c = a + t * (b - a)
+    ahead = (q - c) @ fwd
+    side = np.linalg.norm((q - c) - ahead[:, None] * fwd, axis=1)
+    return bool(np.all((side >= gap) | (ahead >= gap)))
 
 
 def _near_side(body: Body, depth: np.ndarray, part: str, rng: np.random.Generator) -> str:
@@ -223,15 +243,12 @@ def arm_over_belly(body: Body, depth: np.ndarray, rng: np.random.Generator, time
     l1, l2 = float(np.linalg.norm(p[e] - p[s])), float(np.linalg.norm(p[h] - p[e]))
     arm_r = _radius(body, f"{side}_hand")
     belly = ("belly", "torso") if body.family != "creature" else ("body",)
-    # the elbow down at the side, the forearm across the front of the belly: turned forward no more than it
-    # takes to clear the belly
-    elbow = p[s] + l1 * unit(-up + out * rng.uniform(0.05, 0.3) + fwd * rng.uniform(0.2, 0.5))
-    drop = rng.uniform(0.0, 0.3)
-    for f in np.linspace(0.0, 2.0, 21):
-        d = unit(-out + fwd * f - up * drop)
-        if all(_clear(body, belly, elbow + l2 * a * d, arm_r) for a in (0.4, 0.6, 0.8, 1.0)):
-            break
-    over = (elbow, elbow + l2 * d)
+    # the elbow down at the side, the forearm across the front of the belly
+    elbow = _beside(body, belly, p[s], l1, -up + out * rng.uniform(0.05, 0.3) + fwd * rng.uniform(0.2, 0.5), out,
+                    arm_r)
+    over = _across(body, belly, elbow, -out - up * rng.uniform(0.0, 0.3), fwd, l2, arm_r)
+    if over is None:
+        return None, {}
     if rng.random() < 0.5:  # waving: the upper arm out, the forearm up
         elbow = p[s] + l1 * unit(out + rng.uniform(-0.2, 0.4) * up + rng.uniform(0.0, 0.5) * fwd)
         off = (elbow, elbow + l2 * unit(up + rng.uniform(0.1, 0.5) * out + rng.uniform(0.0, 0.4) * fwd))
@@ -252,30 +269,37 @@ def arm_over_belly(body: Body, depth: np.ndarray, rng: np.random.Generator, time
 
 def fold_arms(body: Body, depth: np.ndarray, rng: np.random.Generator, times: np.ndarray
               ) -> tuple[list[dict[int, np.ndarray]], dict]:
-    """A person's forearms folded over the chest at one key (one forearm close over the torso, the other over
-    it) and unfolded (hanging, or held open) at the other; the person stands. Per time (T,) the local turns,
-    and what it holds (which forearm is on top, which key is folded)."""
+    """A person's forearms folded over the chest at one key and unfolded (hanging, or held open) at the other;
+    the person stands. Folded: the elbows down before the chest, the forearms across it rising to the other arm,
+    one close over the torso, the other in front of it (an X, three depths where they cross). Per time
+    (T,) the local turns, and what it holds (which forearm is on top, which key is folded)."""
     j = {n: i for i, n in enumerate(body.joints)}
     p = body.pose
     up, left, fwd = _frame(body)
-    spine = float(np.linalg.norm(p[j["torso"]] - p[j["root"]]))
-    chest = p[j["root"]] + up * spine * rng.uniform(0.5, 0.68)
-    torso = ("torso", "belly")
-    front = _surface(body, torso, chest, fwd)
-    wide = _surface(body, torso, chest, left)
     top = "left" if rng.random() < 0.5 else "right"
-    folded, opened = {}, {}
     style = "hang" if rng.random() < 0.5 else "open"
-    for side in ("left", "right"):
+    folded, opened = {}, {}
+    for side in ("left", "right") if top == "right" else ("right", "left"):  # the one beneath first
         out = left if side == "left" else -left
         s, e, h = (j[f"{side}_{n}"] for n in ("shoulder", "elbow", "hand"))
         l1, l2 = float(np.linalg.norm(p[e] - p[s])), float(np.linalg.norm(p[h] - p[e]))
         r = _radius(body, f"{side}_hand")
-        on_top = side == top
-        lift = (0.5 if on_top else -0.5) * r
-        gap = r * (1.3 + (2.4 if on_top else 0.0))
-        target = chest - out * wide * rng.uniform(0.45, 0.75) + fwd * (front + gap) + up * lift
-        folded[side] = two_bone_ik(p[s], target, l1, l2, unit(out - 0.8 * up + 0.2 * fwd))
+        # the elbow forward of the chest (turned forward until it clears it; the top one until it is in front of
+        # the other forearm), the forearm across
+        down = -up + fwd * rng.uniform(0.2, 0.5) + out * rng.uniform(0, 0.2)
+        elbow = _beside(body, ("torso", "belly"), p[s], l1, down, fwd, 1.5 * r)
+        beneath = [(folded[x], _radius(body, f"{x}_hand")) for x in folded]
+        base = unit(elbow - p[s])
+        for (e0, h0), r0 in beneath:
+            ahead = max(float(e0 @ fwd), float(h0 @ fwd)) + r + r0
+            for o in np.linspace(0.0, 3.0, 31):
+                elbow = p[s] + l1 * unit(base + fwd * o)
+                if elbow @ fwd >= ahead:
+                    break
+        slope = rng.uniform(0.1, 0.4)  # both hands up toward the other arm: the forearms cross
+        folded[side] = _across(body, ("torso", "belly"), elbow, -out + up * slope, fwd, l2, r, beneath)
+        if folded[side] is None or (folded[side][1] - p[j["torso"]]) @ out > -r:
+            return None, {}  # the hand must reach past the middle of the chest (by its radius)
         if style == "hang":
             elbow = p[s] + l1 * unit(-up + out * rng.uniform(0.1, 0.4))
             opened[side] = (elbow, elbow + l2 * unit(-up + out * rng.uniform(0.05, 0.3) + fwd * rng.uniform(0.1, 0.5)))
@@ -419,13 +443,15 @@ def make_redrawn3d(entry: int, size: tuple[int, int] = (256, 256), first: int = 
     for attempt in range(MAX_TRIES):
         rng = np.random.default_rng([seed, attempt, STREAM])
         rest = make_body(rng, family)
-        if kind == "arm_over_belly" and not _has_belly(rest):
-            continue
+        if kind in ("arm_over_belly", "fold_arms") and (kind == "arm_over_belly") != _has_belly(rest):
+            continue  # a belly to lie over; none for folded arms to reach across (they cannot round one)
         if kind == "arm_over_belly" and family == "creature":
             rest = longer_arms(rest, CREATURE_ARMS[0], CREATURE_ARMS[1])
         views = VIEWS.get((kind, family), VIEWS[kind])
         camera = make_camera(rng, views[int(rng.integers(len(views)))])
         turns, info = MOTIONS[kind](rest, camera.rot[2], rng, times)
+        if turns is None:
+            continue  # no pose of this kind for this body
         project = place([posed(rest, tr) for tr in turns], camera, size, rng)
         if project is None:
             continue
