@@ -6,10 +6,10 @@ in-betweens interpolate them) or, for a control, rigid (amount 0, the same body,
 redrawn shot it follows: its rigid twin):
 - side_walk: a person or a tailed creature seen from the side takes one step: at key0 the near leg passes the far
   one (bent, over it), between the keys they part to a stride, at key1 the far leg passes behind the near one;
-- arm_over_belly: a round person or creature: the near arm's forearm lies over the belly at one key and is
-  lifted off it (waving or held out) at the other;
-- fold_arms: a person's forearms folded over the chest at one key (torso, one forearm, the other over it: three
-  depths in one place) and unfolded (hanging or held open) at the other.
+- arm_over_belly: a round person with a belly, or a creature (its arms made longer, CREATURE_ARMS): the near
+  forearm lies across the belly at one key and is lifted off it (waving or held out) at the other;
+- fold_arms: a person without a belly: the forearms folded into an X in front of the chest at one key (torso, one
+  forearm, the other over it: three depths in one place) and unfolded (hanging or held open) at the other.
 The generator checks what each kind promises on the exact per-bone shapes and depths of the render (render3d),
 and draws again (another attempt) where it does not hold: check_side_walk, check_arm_over_belly,
 check_fold_arms, and for redrawn keys the silhouette change (shots3d.redraw_iou). What it measured goes to
