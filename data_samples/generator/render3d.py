@@ -45,10 +45,15 @@ class Camera:
     view: str
 
 
-def make_camera(rng: np.random.Generator) -> Camera:
-    """A random view: front, three-quarter, side, or (rarely) from behind; either side; tilted a little."""
+def make_camera(rng: np.random.Generator, view: str | None = None) -> Camera:
+    """A random view: front, three-quarter, side, or (rarely) from behind; either side; tilted a little. `view`
+    (a VIEWS name) fixes the kind of view and leaves the rest random (the same draws either way)."""
     names, probs, ranges = zip(*VIEWS)
     k = int(rng.choice(len(VIEWS), p=np.asarray(probs) / sum(probs)))
+    if view is not None:
+        if view not in names:
+            raise ValueError(f"view {view!r}: use one of {names}")
+        k = names.index(view)
     yaw = float(rng.uniform(*ranges[k])) * (1 if rng.random() < 0.5 else -1)
     pitch, roll = float(rng.normal(0, 8)), float(rng.normal(0, 4))
     front = np.array([[1.0, 0, 0], [0, -1.0, 0], [0, 0, -1.0]])  # the character faces the camera
@@ -92,6 +97,18 @@ def on_camera(body: Body, camera: Camera, size: tuple[int, int], rng: np.random.
     return solids, marks, project(body.pose), project
 
 
+@dataclass(frozen=True)
+class Rewobble:
+    """The shaky hand of a redrawn key: the look's own wobble field turned by `angle` (radians) toward another,
+    independent one (gx, gy: (H, W) float32, about [-1, 1]); amplitude px. Angle 0 is the look's field, pi / 2
+    the other one; the cos / sin mix keeps the field's strength in between."""
+
+    amplitude: float
+    angle: float
+    gx: np.ndarray
+    gy: np.ndarray
+
+
 @dataclass
 class Rendered:
     """rgb (H, W, 3) uint8 as a reader decodes it; coverage (H, W) float32 of the character (lines included);
@@ -115,8 +132,10 @@ def _up(img: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return cv2.resize(img, (shape[1], shape[0]), interpolation=cv2.INTER_LINEAR)
 
 
-def render(solids: list[Solid], marks: list[Mark], size: tuple[int, int], look: Look3D, seed: int) -> Rendered:
-    """Draw camera-space solids and marks at `size` (H, W) in `look`; the exact per-bone shapes and depths."""
+def render(solids: list[Solid], marks: list[Mark], size: tuple[int, int], look: Look3D, seed: int,
+           rewobble: Rewobble | None = None) -> Rendered:
+    """Draw camera-space solids and marks at `size` (H, W) in `look`; the exact per-bone shapes and depths.
+    rewobble: a redrawn key's shaky hand in place of the look's (None: the look's)."""
     rng = np.random.default_rng([seed, 31])
     h, w = size
     h2, w2 = h * SS, w * SS
@@ -173,8 +192,8 @@ def render(solids: list[Solid], marks: list[Mark], size: tuple[int, int], look: 
     if look.blur > 0:
         rgb = cv2.GaussianBlur(rgb, (0, 0), look.blur)
         coverage = cv2.GaussianBlur(coverage, (0, 0), look.blur)
-    if look.wobble > 0:
-        rgb, coverage, cover, entry = _wobble(rng, look.wobble, rgb, coverage, cover, entry)
+    if look.wobble > 0 or rewobble is not None:
+        rgb, coverage, cover, entry = _wobble(rng, look.wobble, rgb, coverage, cover, entry, rewobble)
     if look.photo:
         rgb8, _ = photograph(rgb, make_photo(size, seed))
     else:
@@ -193,7 +212,10 @@ def _patches(solids: list[Solid], best: np.ndarray, vid: np.ndarray) -> np.ndarr
         if not len(ys):
             continue
         p = np.stack([(xs + 0.5) / SS - 0.5, (ys + 0.5) / SS - 0.5, best[ys, xs]], 1) - s.centre
-        local = (p @ s.axes.T) / s.radii
+        local = p @ s.axes.T
+        if s.egg:  # each half of an egg has its own first radius
+            local[:, 0] /= np.where(local[:, 0] >= 0, 1 + s.egg, 1 - s.egg)
+        local = local / s.radii
         local /= np.maximum(np.linalg.norm(local, axis=1, keepdims=True), 1e-9)
         hit = local @ s.patch[0] > s.patch[1]
         out[ys[hit], xs[hit]] = True
@@ -400,11 +422,17 @@ def _bone_truth(solids: list[Solid], crops: list, band: np.ndarray, band_owner: 
 
 
 def _wobble(rng: np.random.Generator, amount: float, rgb: np.ndarray, coverage: np.ndarray, cover: dict,
-            entry: dict) -> tuple:
-    """A shaky hand: the drawing and its truth displaced by one smooth field of about `amount` px."""
+            entry: dict, rewobble: Rewobble | None = None) -> tuple:
+    """A shaky hand: the drawing and its truth displaced by one smooth field of about `amount` px (a redrawn
+    key's: its own amplitude, the field turned toward another)."""
     h, w = coverage.shape
-    dx = smooth_noise(rng, (h, w), 14.0) * amount
-    dy = smooth_noise(rng, (h, w), 14.0) * amount
+    fx = smooth_noise(rng, (h, w), 14.0)
+    fy = smooth_noise(rng, (h, w), 14.0)
+    if rewobble is not None:
+        c, s = math.cos(rewobble.angle), math.sin(rewobble.angle)
+        fx, fy, amount = c * fx + s * rewobble.gx, c * fy + s * rewobble.gy, rewobble.amplitude
+    dx = fx * amount
+    dy = fy * amount
     gx, gy = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
     mx, my = gx + dx, gy + dy
     lin = lambda a: cv2.remap(a, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)  # noqa: E731

@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 import math
 import shutil
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -39,13 +39,16 @@ from .occlusion3d import (
     reduce_skeleton,
     sample_seed,
 )
-from .render3d import Camera, Rendered, fit_to_frame, make_camera, render
+from .redraw import Redraw, draw_redraw, redrawn_body
+from .render3d import Camera, Rendered, Rewobble, fit_to_frame, make_camera, render
 from .solids import Solid, transformed
 from .write import FORMAT, _dump, _write_png
 
 SHOT_FRAMES = 9  # output frames, both keys included
 SHOT_INDEX_BASE = 1_000_000  # test-split indices far past the occlusion benchmark's (it takes the first few)
 STREAM = 41  # the shots' own random stream: at an equal seed they draw nothing the occlusion samples draw
+REDRAW_STREAM = 43  # the redrawn keys' changes: their own stream, so the rigid shot's draws stay as they were
+REDRAW_IOU = 0.06  # a redrawn key1's silhouette IoU with key0's shapes reposed to it: at most 1 - this * amount
 MAX_TRIES = 40
 FILL = (0.6, 0.85)  # share of the frame the whole motion's extent fills
 # the default set: (body family, style family, motion); creature and crayon are held out of the network's
@@ -61,7 +64,8 @@ MOTIONS = {"round": ("reach", "walk"), "thin": ("reach", "walk"), "props": ("rea
 class Shot3D:
     """One shot's arrays: frames (T, H, W, 3) uint8 RGB; coverage (T, H, W) float32; joints, parents of the
     skeleton; poses (T, J, 3) float64 x, y px and depth; crossings per key: the sorted non-adjacent bone pairs
-    (child joint names) overlapping by >= MIN_EVIDENCE_PX; and what it is (family, style, motion, view, seed)."""
+    (child joint names) overlapping by >= MIN_EVIDENCE_PX; and what it is (family, style, motion, view, seed).
+    name: the directory name when not shot_name's default; extra: more of what it holds, for heldout.json."""
 
     frames: np.ndarray
     coverage: np.ndarray
@@ -76,6 +80,8 @@ class Shot3D:
     index: int
     seed: int
     attempt: int
+    name: str = ""
+    extra: dict = field(default_factory=dict)
 
 
 def plan(index: int) -> tuple[str, str, str]:
@@ -149,12 +155,45 @@ def _slerp(r1: np.ndarray, times: np.ndarray) -> list[np.ndarray]:
     return list(s(times).as_matrix())
 
 
+def arm_turns(body: Body, side: str, start: tuple[np.ndarray, np.ndarray], end: tuple[np.ndarray, np.ndarray],
+              times: np.ndarray) -> dict[int, list[np.ndarray]]:
+    """Local turns (T of them per joint: the elbow's and the hand's) moving a person's or creature's `side`
+    arm from start to end, each an (elbow, hand) pair of (3,) world positions at the rest body's shoulder: the
+    upper arm and forearm turned along the shortest arcs from the one to the other."""
+    j = {n: i for i, n in enumerate(body.joints)}
+    s, e, h = (j[f"{side}_{n}"] for n in ("shoulder", "elbow", "hand"))
+    p = body.pose
+    key = {}
+    for which, (elbow, hand) in (("start", start), ("end", end)):
+        upper = turn_between(p[e] - p[s], elbow - p[s])
+        fore = upper.T @ turn_between(upper @ (p[h] - p[e]), hand - elbow) @ upper
+        key[which] = (upper, fore)
+    turns = {}
+    for c, k in ((e, 0), (h, 1)):  # from the start to the end, both given relative to the rest pose
+        a, b = key["start"][k], key["end"][k]
+        turns[c] = [a @ r for r in _slerp(a.T @ b, times)]
+    return turns
+
+
+def _per_frame(turns: dict[int, list[np.ndarray]], n: int) -> list[dict[int, np.ndarray]]:
+    """{joint: T turns} as T {joint: turn}."""
+    return [{c: r[i] for c, r in turns.items()} for i in range(n)]
+
+
 def procedural_motion(body: Body, kind: str, rng: np.random.Generator, times: np.ndarray
                       ) -> tuple[list[Body], tuple[str, ...]]:
-    """The body at each time (T,) of a procedural motion, and the joints ending the bones that cross the body
-    (reach, tail): 'reach' (a person's hand from the side to across the front of the torso), 'walk' (legs and
-    arms swing in opposition), 'trot' (a quadruped's diagonal legs swing in pairs, head and tail follow),
-    'tail' (a creature's tail sweeps from one side to the other)."""
+    """The body at each time (T,) of a procedural motion (procedural_turns), and the joints ending the bones
+    that cross the body."""
+    turns, moving = procedural_turns(body, kind, rng, times)
+    return [posed(body, tr) for tr in turns], moving
+
+
+def procedural_turns(body: Body, kind: str, rng: np.random.Generator, times: np.ndarray
+                     ) -> tuple[list[dict[int, np.ndarray]], tuple[str, ...]]:
+    """Per time (T,), the local turns of a procedural motion (for posed), and the joints ending the bones
+    that cross the body (reach, tail): 'reach' (a person's hand from the side to across the front of the torso),
+    'walk' (legs and arms swing in opposition), 'trot' (a quadruped's diagonal legs swing in pairs, head and
+    tail follow), 'tail' (a creature's tail sweeps from one side to the other)."""
     j = {n: i for i, n in enumerate(body.joints)}
     turns: dict[int, list[np.ndarray]] = {}
 
@@ -177,16 +216,8 @@ def procedural_motion(body: Body, kind: str, rng: np.random.Generator, times: np
         target = p[s] + across * reach * rng.uniform(0.7, 1.0) - up * l1 * rng.uniform(0.3, 0.8) \
             + fwd * (l1 + l2) * rng.uniform(0.45, 0.6)
         end_elbow, end_hand = two_bone_ik(p[s], target, l1, l2, unit(-up - 0.5 * across + 0.4 * fwd))
-        key = {}
-        for which, (elbow, hand) in (("start", (start_elbow, start_hand)), ("end", (end_elbow, end_hand))):
-            upper = turn_between(p[e] - p[s], elbow - p[s])
-            fore = upper.T @ turn_between(upper @ (p[h] - p[e]), hand - elbow) @ upper
-            key[which] = (upper, fore)
-        for c, k in ((e, 0), (h, 1)):  # from the start to the end, both given relative to the rest pose
-            a, b = key["start"][k], key["end"][k]
-            turns[c] = [a @ r for r in _slerp(a.T @ b, times)]
-        return [posed(body, {c: r[i] for c, r in turns.items()}) for i in range(len(times))], \
-            (f"{side}_elbow", f"{side}_hand")
+        turns.update(arm_turns(body, side, (start_elbow, start_hand), (end_elbow, end_hand), times))
+        return _per_frame(turns, len(times)), (f"{side}_elbow", f"{side}_hand")
     moving: tuple[str, ...] = ()
     if kind == "walk":
         amp, phase = rng.uniform(22, 34), rng.uniform(-0.3, 0.3)
@@ -216,7 +247,7 @@ def procedural_motion(body: Body, kind: str, rng: np.random.Generator, times: np
         about("right_elbow", LEFT, _swing(times, rng.uniform(20, 40), 0.0))
     else:
         raise ValueError(f"motion {kind!r}: use one of reach, walk, trot, tail")
-    return [posed(body, {c: r[i] for c, r in turns.items()}) for i in range(len(times))], moving
+    return _per_frame(turns, len(times)), moving
 
 
 def bvh_motion(rng_seed: list[int], family: str, motion: Motion, start: int, step: int) -> list[Body]:
@@ -248,15 +279,79 @@ def _on_camera(body: Body, project) -> tuple[list[Solid], list[Mark]]:
 
 
 def _crossings(drawn: Rendered, body: Body, pose_cam: np.ndarray, project) -> tuple[list[str], list[int], np.ndarray,
-                                                                                    list[str]]:
-    """The frame's AnimatedDrawings skeleton (joints, parents, (J, 3) pose) and its non-adjacent overlaps of
-    >= MIN_EVIDENCE_PX as 'front-back' child joint names."""
+                                                                                    list[str], dict, dict]:
+    """The frame's AnimatedDrawings skeleton (joints, parents, (J, 3) pose), its non-adjacent overlaps of
+    >= MIN_EVIDENCE_PX as 'front-back' child joint names, and per bone of that skeleton (keyed by its index in
+    child order, Skeleton.bones) its (H, W) bool shape and float32 entry depth."""
     joints, parents, pose, bone_of = reduce_skeleton(body, pose_cam, project, ad=True)
     cover, entry = _merge(drawn.cover, drawn.entry, bone_of)
     _, pairs = pair_truth(cover, entry, joints, parents, drawn.coverage >= 0.5)
     over = sorted(f"{p['front_part']}/{p['back_part']}" for p in pairs
                   if not p["adjacent"] and p["pixels"] >= MIN_EVIDENCE_PX)
-    return joints, parents, pose, over
+    return joints, parents, pose, over, cover, entry
+
+
+@dataclass
+class Drawn:
+    """A motion drawn frame by frame: frames (T, H, W, 3) uint8; coverage (T, H, W) float32; joints, parents of
+    the AnimatedDrawings skeleton; poses (T, J, 3); over: per frame the crossings (_crossings); cover, entry: per
+    frame, per bone (child order) its (H, W) bool shape and float32 entry depth."""
+
+    frames: np.ndarray
+    coverage: np.ndarray
+    joints: list[str]
+    parents: list[int]
+    poses: np.ndarray
+    over: list[list[str]]
+    cover: list[dict]
+    entry: list[dict]
+
+    def leaves_frame(self) -> bool:
+        """True when the character touches the image border in some frame."""
+        fg = self.coverage >= 0.5
+        return bool(fg[:, 0].any() or fg[:, -1].any() or fg[:, :, 0].any() or fg[:, :, -1].any())
+
+    def bone(self, child: str) -> int:
+        """The index (child order) of the bone ending at joint `child`."""
+        kids = [c for c, p in enumerate(self.parents) if p >= 0]
+        return kids.index(self.joints.index(child))
+
+
+def draw_motion(bodies: list[Body], project, size: tuple[int, int], look, seed: int,
+                rewobbles: list[Rewobble | None] | None = None) -> Drawn:
+    """Every body (one per frame) drawn in one look with one render seed (one paper, one hand), each with its
+    shaky hand (rewobbles: per frame, None = the look's)."""
+    frames, cover, poses, over, shapes, depths = [], [], [], [], [], []
+    for i, body in enumerate(bodies):
+        solids, marks = _on_camera(body, project)
+        drawn = render(solids, marks, size, look, seed, None if rewobbles is None else rewobbles[i])
+        joints, parents, pose, pairs, c, e = _crossings(drawn, body, project(body.pose), project)
+        frames.append(drawn.rgb)
+        cover.append(drawn.coverage)
+        poses.append(pose)
+        over.append(pairs)
+        shapes.append(c)
+        depths.append(e)
+    poses_arr = np.stack(poses)
+    poses_arr[..., 2] = np.round(poses_arr[..., 2], 3)
+    return Drawn(np.stack(frames), np.stack(cover).astype(np.float32), joints, parents, poses_arr, over, shapes,
+                 depths)
+
+
+def redrawn_motion(rest: Body, turns: list[dict[int, np.ndarray]], times: np.ndarray, redraw: Redraw) -> list[Body]:
+    """The rest body redrawn as at each time (T,) and posed by that time's turns."""
+    return [posed(redrawn_body(rest, redraw.at(float(t))), tr) for t, tr in zip(times, turns)]
+
+
+def redraw_iou(rest: Body, turns: list[dict[int, np.ndarray]], redraw: Redraw, project, size: tuple[int, int], look,
+               seed: int, key1: np.ndarray) -> float:
+    """Silhouette IoU of key1 (its (H, W) coverage) against key0's shapes and hand reposed rigidly to key1's
+    pose: 1 for a rigid shot, lower the more the keys are redrawn."""
+    body = posed(redrawn_body(rest, redraw.at(0.0)), turns[-1])
+    solids, marks = _on_camera(body, project)
+    again = render(solids, marks, size, look, seed, redraw.rewobble(0.0)).coverage >= 0.5
+    now = key1 >= 0.5
+    return float((again & now).sum() / max(int((again | now).sum()), 1))
 
 
 def _involving(pairs: list[str], joints: tuple[str, ...]) -> set[str]:
@@ -265,19 +360,24 @@ def _involving(pairs: list[str], joints: tuple[str, ...]) -> set[str]:
 
 
 def make_shot3d(index: int, size: tuple[int, int] = (256, 256), bvh_dir: Path | str | None = None,
-                family: str | None = None, style: str | None = None, motion: str | None = None) -> Shot3D:
+                family: str | None = None, style: str | None = None, motion: str | None = None,
+                redraw: float = 0.0) -> Shot3D:
     """Shot `index` (arrays only, nothing written): PLAN's family, style and motion unless given. With bvh_dir,
-    people move along one of its clips (motion 'bvh:<clip>'). Deterministic per (index, size, clips)."""
+    people move along one of its clips (motion 'bvh:<clip>'). redraw: the amount by which the keys are redrawn
+    (redraw.py; procedural motions only; 0: rigid). Deterministic per (index, size, clips, redraw)."""
     f0, s0, m0 = plan(index)
     family, style, motion = family or f0, style or s0, motion or m0
     seed = sample_seed("test", SHOT_INDEX_BASE + index)
     clips = _motions(str(bvh_dir) if bvh_dir else None)
+    people = family in ("round", "thin", "props")
+    if redraw and clips and people:
+        raise ValueError("make_shot3d: redrawn keys need a procedural motion; leave bvh_dir out")
     times = np.linspace(0.0, 1.0, SHOT_FRAMES)
     for attempt in range(MAX_TRIES):
         draws = [seed, attempt, STREAM]
         rng = np.random.default_rng(draws)
-        source, moving = motion, ()
-        if clips and family in ("round", "thin", "props"):
+        source, moving, rest = motion, (), None
+        if clips and people:
             name, clip = clips[int(rng.integers(len(clips)))]
             step = int(rng.integers(2, 5))
             if len(clip.frames) <= (SHOT_FRAMES - 1) * step:
@@ -288,38 +388,42 @@ def make_shot3d(index: int, size: tuple[int, int] = (256, 256), bvh_dir: Path | 
                 continue
             source = f"bvh:{name}:{start}:{step}"
         else:
-            bodies, moving = procedural_motion(make_body(rng, family), motion, rng, times)
+            rest = make_body(rng, family)
+            turns, moving = procedural_turns(rest, motion, rng, times)
+            bodies = [posed(rest, tr) for tr in turns]
         camera = make_camera(rng)
-        project = place(bodies, camera, size, rng)
+        project = place(bodies, camera, size, rng)  # the rigid motion's extent: the same for every amount
         if project is None:
             continue
         look = make_look3d(style, rng, scale=max(size) / 256.0)
-        frames, cover, poses, over = [], [], [], []
-        for body in bodies:
-            solids, marks = _on_camera(body, project)
-            drawn = render(solids, marks, size, look, seed * 7 + attempt)  # one render seed: one paper, one hand
-            joints, parents, pose, pairs = _crossings(drawn, body, project(body.pose), project)
-            frames.append(drawn.rgb)
-            cover.append(drawn.coverage)
-            poses.append(pose)
-            over.append(pairs)
-        fg = np.stack(cover) >= 0.5
-        if fg[:, 0].any() or fg[:, -1].any() or fg[:, :, 0].any() or fg[:, :, -1].any():
+        rewobbles = None
+        if rest is not None:  # amount 0 changes no solid and keeps the look's hand: the rigid shot
+            rd = draw_redraw(np.random.default_rng([seed, attempt, REDRAW_STREAM]), rest.solids, redraw, size,
+                             look.wobble)
+            bodies = redrawn_motion(rest, turns, times, rd)
+            rewobbles = [rd.rewobble(float(t)) for t in times]
+        drawn = draw_motion(bodies, project, size, look, seed * 7 + attempt, rewobbles)
+        if drawn.leaves_frame():
             continue  # the character leaves the frame somewhere along the motion
+        over = drawn.over
         if moving and _involving(over[0], moving) == _involving(over[-1], moving):
             continue  # the moving limb must come to cross (or leave) another part between the keys
-        poses_arr = np.stack(poses)
-        poses_arr[..., 2] = np.round(poses_arr[..., 2], 3)
-        return Shot3D(np.stack(frames), np.stack(cover).astype(np.float32), joints, parents, poses_arr,
-                      (over[0], over[-1]), family, style, source, camera.view, index, seed, attempt)
+        extra = {}
+        if redraw:
+            iou = redraw_iou(rest, turns, rd, project, size, look, seed * 7 + attempt, drawn.coverage[-1])
+            if iou > 1 - REDRAW_IOU * redraw:
+                continue  # the keys must differ beyond the skeleton by what was asked
+            extra = {"redraw": redraw, "redraw_iou": round(iou, 4)}
+        return Shot3D(drawn.frames, drawn.coverage, drawn.joints, drawn.parents, drawn.poses, (over[0], over[-1]),
+                      family, style, source, camera.view, index, seed, attempt, extra=extra)
     raise RuntimeError(f"shot {index} ({family}, {style}, {motion}): no usable motion in {MAX_TRIES} tries")
 
 
 # ----------------------------------------------------------------------------- writing
 
 def shot_name(shot: Shot3D) -> str:
-    """The shot's directory name: index, family, style, motion kind."""
-    return f"h{shot.index:02d}_{shot.family}_{shot.style}_{shot.motion.split(':')[0]}"
+    """The shot's directory name: its own, else index, family, style, motion kind."""
+    return shot.name or f"h{shot.index:02d}_{shot.family}_{shot.style}_{shot.motion.split(':')[0]}"
 
 
 def write_shot3d(shot: Shot3D, out_root: Path) -> Path:
@@ -345,6 +449,6 @@ def write_shot3d(shot: Shot3D, out_root: Path) -> Path:
     meta = {"generator": "3d", "split": "test", "index": shot.index, "seed": shot.seed, "attempt": shot.attempt,
             "family": shot.family, "style": shot.style, "motion": shot.motion, "view": shot.view,
             "held_out_of_occlusion_training": held, "size": list(shot.frames.shape[1:3]),
-            "crossings": {"key0": shot.crossings[0], "key1": shot.crossings[1]}}
+            "crossings": {"key0": shot.crossings[0], "key1": shot.crossings[1]}} | shot.extra
     (d / "heldout.json").write_text(json.dumps(meta, indent=1) + "\n")
     return d
