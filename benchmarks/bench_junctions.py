@@ -76,7 +76,7 @@ def sample_keyframes():
         if data.get("masks"):  # manual masks: the pipeline does not predict this shot's occlusion
             continue
         shot = load_shot(d)
-        for k in (0, 1):
+        for k in range(shot.n_keys):
             drawing = np.asarray(read_image(shot.keyframes[k]), np.float32)[..., :3]
             yield (f"{d.name}/key{k}", d.name, drawing, shot.key_pose(k), shot.skeleton,
                    merge_truth(shot.t_junctions[k]))

@@ -29,7 +29,6 @@ from pathlib import Path
 import cv2
 import numpy as np
 import torch
-import torch.nn.functional as F
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
@@ -41,7 +40,7 @@ from ops.segmentation.junction_infer import (  # noqa: E402
     junction_input,
 )
 from ops.segmentation.junction_net import WEIGHTS_PATH, JunctionUNet, save_weights  # noqa: E402
-from ops.segmentation.junction_proposals import heat_peaks  # noqa: E402
+from ops.segmentation.junction_proposals import heat_peaks, junction_maps  # noqa: E402
 from ops.segmentation.network_input import to_work  # noqa: E402
 from ops.types import Skeleton  # noqa: E402
 from tools.occlusion_data import ensure, load  # noqa: E402
@@ -185,30 +184,26 @@ def match_count(truth: np.ndarray, proposed: np.ndarray, radius: float) -> int:
     return int((d[r, c] <= radius).sum())
 
 
-def tune(net: JunctionUNet, samples: list[dict], thresholds: np.ndarray) -> list[tuple[float, int, int, int]]:
-    """(threshold, true, proposed, matched) per threshold on samples (true foreground, the drawing itself), with
-    the torch network and the proposals' own peak reading; prints the sweep."""
-    from ops.segmentation.junction_infer import to_keyframe
+def tune(weights: Path, samples: list[dict], thresholds: np.ndarray) -> list[tuple[float, int, int, int]]:
+    """(threshold, true, proposed, matched) per threshold on samples (true foreground, the drawing itself), read
+    as the proposals read a keyframe (junction_proposals.junction_maps, heat_peaks) with a weights file; prints
+    the sweep."""
+    from ops.segmentation.junction_infer import file_sha256, to_keyframe
 
-    net.eval()
+    use = (str(weights), file_sha256(weights))
     rows = np.zeros((len(thresholds), 3), np.int64)
-    with torch.no_grad():
-        for d in samples:
-            fg = d["fg"] > 127
-            frame = junction_frame(fg, d["pose"])
-            x = junction_input(d["image"], frame, d["pose"], skeleton_of(d))
-            heat = torch.sigmoid(net(torch.from_numpy(x)[None])[0, 0]).numpy()
-            h, w = frame.work_shape()
-            pts, scores = heat_peaks(heat[:h, :w], float(thresholds.min()))
-            pts = to_keyframe(pts, frame)
-            truth, _ = truth_of(d)
-            for i, t in enumerate(thresholds):
-                keep = pts[scores >= t]
-                rows[i] += (len(truth), len(keep), match_count(truth, keep, MATCH_PX))
+    for d in samples:
+        heat, _, frame = junction_maps(d["image"], d["fg"] > 127, d["pose"], skeleton_of(d), use)
+        pts, scores = heat_peaks(heat, float(thresholds.min()))
+        pts = to_keyframe(pts, frame)
+        truth, _ = truth_of(d)
+        for i, t in enumerate(thresholds):
+            keep = pts[scores >= t]
+            rows[i] += (len(truth), len(keep), match_count(truth, keep, MATCH_PX))
     out = []
     for t, (n_true, n_prop, m) in zip(thresholds, rows):
         rec, pre = m / max(n_true, 1), m / max(n_prop, 1)
-        print(f"  threshold {t:.2f}: recall {rec:.3f} precision {pre:.3f} ({m}/{n_true} true, {n_prop} proposed)")
+        print(f"  threshold {t:.3f}: recall {rec:.3f} precision {pre:.3f} ({m}/{n_true} true, {n_prop} proposed)")
         out.append((float(t), int(n_true), int(n_prop), int(m)))
     return out
 
@@ -219,36 +214,31 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--samples", type=int, default=1500, help="2D train samples 0 .. N-1")
     ap.add_argument("--samples3d", type=int, default=2000, help="3D train samples (the first N trained-on indices)")
     ap.add_argument("--share3d", type=float, default=0.5, help="share of each batch's crops from the 3D samples")
-    ap.add_argument("--steps", type=int, default=6000, help="length of the learning-rate schedule")
+    ap.add_argument("--steps", type=int, default=5000, help="length of the learning-rate schedule")
     ap.add_argument("--stop-after", type=int, default=None, help="end training after this many steps")
     ap.add_argument("--batch", type=int, default=12)
     ap.add_argument("--crop", type=int, default=96, help="training crop side, working pixels")
     ap.add_argument("--lr", type=float, default=3e-3)
-    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--threads", type=int, default=1, help="torch threads (one: less CPU time on a busy machine)")
     ap.add_argument("--out", type=Path, default=WEIGHTS_PATH)
     ap.add_argument("--workers", type=int, default=1, help="processes generating missing samples")
     ap.add_argument("--tune-n", type=int, default=100, help="tuning samples per generator (train split, untrained)")
     ap.add_argument("--tune-only", action="store_true", help="only print the tuning sweep of --out")
     args = ap.parse_args(argv)
     torch.set_num_threads(args.threads)
-    if args.tune_only:
-        from ops.segmentation.junction_net import load_network
-        from ops.segmentation.junction_infer import file_sha256
-
-        net = load_network(str(args.out), file_sha256(args.out))
-    else:
-        net = train(args)
+    if not args.tune_only:
+        train(args)
     tuning = [load(p) for p in ensure(args.cache, "train", TUNE_2D_START, args.tune_n, args.workers)]
     tuning3d = [load(p) for p in ensure(args.cache, "train", TUNE_3D_START, args.tune_n, args.workers, "3d")]
-    thresholds = np.round(np.arange(0.1, 0.75, 0.05), 2)
+    thresholds = np.round(np.arange(0.1, 0.6, 0.025), 3)
     print(f"tuning: 2D train split {TUNE_2D_START}-{TUNE_2D_START + args.tune_n - 1} (never trained on), "
           "true foreground")
-    tune(net, tuning, thresholds)
+    tune(args.out, tuning, thresholds)
     print(f"tuning: 3D train split, trained-on families, from index {TUNE_3D_START} (never trained on)")
-    tune(net, tuning3d, thresholds)
+    tune(args.out, tuning3d, thresholds)
 
 
-def train(args: argparse.Namespace) -> JunctionUNet:
+def train(args: argparse.Namespace) -> None:
     """Train from scratch on the cached samples and write the weights (and their sha256, for the shipped file)."""
     torch.manual_seed(SEED)
     rng = np.random.default_rng(SEED)
@@ -292,7 +282,6 @@ def train(args: argparse.Namespace) -> JunctionUNet:
     if args.out == WEIGHTS_PATH:
         set_sha(digest)
     print(f"weights {args.out} sha256 {digest} ({args.out.stat().st_size / 1e6:.2f} MB)", flush=True)
-    return net
 
 
 if __name__ == "__main__":

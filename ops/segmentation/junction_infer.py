@@ -40,7 +40,7 @@ JUNCTION_EXTENT_PX = 160.0  # longer side of the joints' box at the network's sc
 MAX_ZOOM = 4.0
 WEIGHTS_PATH = Path(__file__).with_name("junction_unet.npz")
 # sha256 of WEIGHTS_PATH: a retrained network changes this module, hence the code version of the stages using it
-WEIGHTS_SHA256 = "0df8d448bbd6e64f042f1edbc9f6777c104f0dc77868051eecaec1dd423bd726"
+WEIGHTS_SHA256 = "0207b6a3fee8db8634ac4512744619177b3499149c5783e042ca0c03f4ef792a"
 
 # (name in the weights file, stride, padding, dilation) of each conv + BatchNorm + ReLU, in forward order
 ENCODER = {

@@ -18,10 +18,11 @@ from scipy import ndimage
 
 from ops.segmentation.contacts import scale_of
 from ops.segmentation.junction_infer import junction_frame, junction_input, junction_outputs, to_keyframe
+from ops.segmentation.network_input import WorkFrame
 from ops.types import Masks, RefinedMasks, Skeleton
 
 MERGE_PX = 3.0  # proposals closer than this (at the reference size, scale_of) are one
-MIN_SCORE = 0.3  # proposals below this score are left out (chosen on the tuning split: tools/train_junctions.py)
+MIN_SCORE = 0.2  # proposals below this score are left out (chosen on the tuning split: tools/train_junctions.py)
 
 
 @dataclass
@@ -83,14 +84,24 @@ def _at(field: np.ndarray, points: np.ndarray) -> np.ndarray:
     return field[ij[:, 0], ij[:, 1]]
 
 
-def junction_maps(masks: Masks | RefinedMasks, pose: np.ndarray, skeleton: Skeleton):
-    """The network's reading of a keyframe: (h, w) float32 heat in [0, 1] and (2, h, w) float32 stem direction
-    at the working scale, and the WorkFrame that maps working pixels to the keyframe's."""
-    frame = junction_frame(np.asarray(masks.foreground, bool), pose)
-    out = junction_outputs(junction_input(drawing_of(masks), frame, pose, skeleton))
+def junction_maps(image: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
+                  weights: tuple[str, str] | None = None) -> tuple[np.ndarray, np.ndarray, WorkFrame]:
+    """The network's reading of a (H, W, 3) uint8 drawing with its (H, W) bool foreground (for the crop) at its
+    (J, 3) pose: (h, w) float32 heat in [0, 1] and (2, h, w) float32 stem direction at the working scale, and
+    the WorkFrame that maps working pixels to the keyframe's. The drawing and its mirror image are read and
+    averaged (fewer lone false peaks). weights: (path, sha256) of another weights file (training's tuning)."""
+    frame = junction_frame(np.asarray(foreground, bool), pose)
+    x = junction_input(image, frame, pose, skeleton)
     h, w = frame.work_shape()
-    heat = 1.0 / (1.0 + np.exp(-out[0, :h, :w]))
-    return heat.astype(np.float32), np.tanh(out[1:3, :h, :w]), frame
+    heat = np.zeros((h, w), np.float32)
+    stem = np.zeros((2, h, w), np.float32)
+    for flip in (False, True):
+        out = junction_outputs(np.ascontiguousarray(x[:, :, ::-1]) if flip else x, *(weights or ()))
+        if flip:  # back to the drawing's side; the stem's x turns
+            out = out[:, :, ::-1] * np.array([1.0, -1.0, 1.0], np.float32)[:, None, None]
+        heat += 0.5 / (1.0 + np.exp(-out[0, :h, :w]))
+        stem += 0.5 * np.tanh(out[1:3, :h, :w])
+    return heat, stem, frame
 
 
 def propose_t_junctions(masks: Masks | RefinedMasks, pose: np.ndarray, skeleton: Skeleton,
@@ -102,7 +113,7 @@ def propose_t_junctions(masks: Masks | RefinedMasks, pose: np.ndarray, skeleton:
     empty = JunctionProposals(np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros(0, np.int64))
     if not np.asarray(masks.foreground).any() or not len(skeleton.bones):
         return empty
-    heat, stem_map, frame = junction_maps(masks, pose, skeleton)
+    heat, stem_map, frame = junction_maps(drawing_of(masks), masks.foreground, pose, skeleton)
     work, scores = heat_peaks(heat, min_score)
     if not len(work):
         return empty
