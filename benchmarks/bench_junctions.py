@@ -2,6 +2,7 @@
 
     python benchmarks/bench_junctions.py                     # tuning and held-out splits, 5 px
     python benchmarks/bench_junctions.py --test 100 --test3d 60 --radius 5 --rows
+    python benchmarks/bench_junctions.py --speed             # CPU seconds of one keyframe at 256 and 512 px
 
 Truth: where the outline of a part meets the outline of a nearer part that shares no joint with it and covers
 it, not painted over by a third (data_samples/generator/occlusion.py: t_junctions, the sample shots' shot.json
@@ -142,6 +143,29 @@ def _overall(label: str, totals: list[np.ndarray]) -> None:
     print(f"{label}: recall {m / max(t, 1):.3f}, precision {m / max(p, 1):.3f} ({m}/{t} true, {m}/{p} proposed)")
 
 
+def speed(sizes: tuple[int, ...] = (256, 512), repeats: int = 5) -> None:
+    """Print the proposals' CPU seconds on one keyframe (the 2D test split's first sample, scaled so its longer
+    side is each size), median of `repeats` runs after a first one (weights loaded)."""
+    import cv2
+
+    s = make_sample("test", 0)
+    skeleton = Skeleton(tuple(s.joints), np.asarray(s.parents, np.int64))
+    for size in sizes:
+        k = size / max(s.image.shape[:2])
+        img = cv2.resize(s.image, None, fx=k, fy=k, interpolation=cv2.INTER_CUBIC).astype(np.float32) / 255.0
+        pose = s.pose.copy()
+        pose[:, :2] *= k
+        masks = build_masks(img, pose, skeleton, occlusion="hybrid")
+        propose_t_junctions(masks, pose, skeleton)
+        cpu = []
+        for _ in range(repeats):
+            c0 = time.process_time()
+            propose_t_junctions(masks, pose, skeleton)
+            cpu.append(time.process_time() - c0)
+        print(f"speed: a {img.shape[1]} x {img.shape[0]} keyframe, proposals {np.median(cpu):.3f} CPU s "
+              f"(median of {repeats})")
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--train", type=int, default=60, help="tuning samples of each generator's train split")
@@ -150,7 +174,11 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--radius", type=float, default=5.0, help="match radius, pixels")
     ap.add_argument("--rows", action="store_true", help="one row per keyframe")
     ap.add_argument("--split", choices=("both", "tuning", "held-out"), default="both")
+    ap.add_argument("--speed", action="store_true", help="only the CPU time of one keyframe at 256 and 512 px")
     args = ap.parse_args(argv)
+    if args.speed:
+        speed()
+        return
     r = args.radius
     if args.split in ("both", "tuning"):
         print("sample shots (tuning):")

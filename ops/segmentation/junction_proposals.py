@@ -22,7 +22,7 @@ from ops.segmentation.network_input import WorkFrame
 from ops.types import Masks, RefinedMasks, Skeleton
 
 MERGE_PX = 3.0  # proposals closer than this (at the reference size, scale_of) are one
-MIN_SCORE = 0.2  # proposals below this score are left out (chosen on the tuning split: tools/train_junctions.py)
+MIN_SCORE = 0.2  # the largest threshold at which the 2D tuning set reaches recall 0.8, precision 0.6 (train_junctions)
 
 
 @dataclass
