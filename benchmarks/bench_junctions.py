@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from collections import defaultdict
@@ -143,7 +144,7 @@ def _overall(label: str, totals: list[np.ndarray]) -> None:
     print(f"{label}: recall {m / max(t, 1):.3f}, precision {m / max(p, 1):.3f} ({m}/{t} true, {m}/{p} proposed)")
 
 
-def speed(sizes: tuple[int, ...] = (256, 512), repeats: int = 5) -> None:
+def speed(sizes: tuple[int, ...] = (256, 512), repeats: int = 9) -> None:
     """Print the proposals' CPU seconds on one keyframe (the 2D test split's first sample, scaled so its longer
     side is each size), median of `repeats` runs after a first one (weights loaded)."""
     import cv2
@@ -163,7 +164,7 @@ def speed(sizes: tuple[int, ...] = (256, 512), repeats: int = 5) -> None:
             propose_t_junctions(masks, pose, skeleton)
             cpu.append(time.process_time() - c0)
         print(f"speed: a {img.shape[1]} x {img.shape[0]} keyframe, proposals {np.median(cpu):.3f} CPU s "
-              f"(median of {repeats})")
+              f"(median of {repeats}; least {min(cpu):.3f}; load average {os.getloadavg()[0]:.1f})")
 
 
 def main(argv: list[str] | None = None) -> None:
