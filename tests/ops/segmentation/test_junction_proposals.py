@@ -146,3 +146,21 @@ def test_numpy_inference_equals_the_torch_network():
     got = junction_infer.junction_outputs(x)
     assert got.shape == want.shape
     assert np.abs(got - want).max() <= 1e-5 * max(1.0, float(np.abs(want).max()))
+
+
+def test_proposals_never_import_torch():
+    """The proposals run the network in NumPy: `inbetween junctions` and the editor never wait on torch."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    code = ("import sys\n"
+            "from tests.ops.segmentation.test_junction_proposals import masks_of, occluded_drawing, POSE, SKELETON\n"
+            "from ops.segmentation.junction_proposals import propose_t_junctions\n"
+            "assert len(propose_t_junctions(masks_of(*occluded_drawing(), []), POSE, SKELETON).points)\n"
+            "print('torch' in sys.modules)\n")
+    root = str(Path(__file__).resolve().parents[3])
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=root,
+                          env={**os.environ, "PYTHONPATH": root})
+    assert done.returncode == 0 and done.stdout.strip() == "False", done.stderr[-2000:]
