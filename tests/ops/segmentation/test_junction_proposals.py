@@ -83,6 +83,18 @@ def test_proposals_are_scored_sorted_and_apart():
     assert (props.regions == 0).all()
 
 
+def test_two_lines_crossing_are_not_a_t():
+    img = np.ones((S, S, 3), np.float32)
+    cv2.rectangle(img, (30, 20), (98, 108), BODY, -1)
+    cv2.rectangle(img, (30, 20), (98, 108), INK, 2)
+    cv2.line(img, (40, 64), (88, 64), INK, 2, cv2.LINE_AA)  # texture strokes crossing on one body: nothing covered
+    cv2.line(img, (64, 30), (64, 98), INK, 2, cv2.LINE_AA)
+    cov = (np.abs(img - 1.0).sum(axis=2) > 0.02).astype(np.float32)
+    pose = np.array([[64.0, 100.0, 0.0], [64.0, 28.0, 0.0], [40.0, 64.0, 0.0], [88.0, 64.0, 0.0]])
+    props = propose_t_junctions(masks_of(img, cov, []), pose, SKELETON, min_score=0.05)
+    assert not len(props.points) or np.linalg.norm(props.points - (64.0, 64.0), axis=1).min() > 3.0
+
+
 def test_an_undivided_body_proposes_nothing():
     colour = np.ones((64, 64, 3), np.float32)
     cov = np.zeros((64, 64), np.float32)
