@@ -115,3 +115,41 @@ def polygon_crossings(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     hit = (np.abs(den) > 1e-12) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1)
     i, _ = np.nonzero(hit)
     return a[i] + t[hit][:, None] * (b - a)[i]
+
+
+def walk_along(poly: np.ndarray, pts: np.ndarray, dist: float, closed: bool = True) -> np.ndarray:
+    """(k, 2, 2) the points `dist` px along a polyline (n, 2) from the nearest location of each of pts (k, 2),
+    backward ([:, 0]) and forward ([:, 1]) along its vertex order; an open polyline stops at its ends."""
+    poly = np.asarray(poly, np.float64)
+    a = poly
+    b = np.roll(poly, -1, 0) if closed else np.concatenate([poly[1:], poly[-1:]])
+    ab = b - a
+    seg = np.linalg.norm(ab, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(seg)])  # arc length at each vertex (cum[-1]: the whole length)
+    total = cum[-1]
+    out = np.zeros((len(pts), 2, 2))
+    for k, q in enumerate(np.asarray(pts, np.float64).reshape(-1, 2)):
+        t = np.clip(((q - a) * ab).sum(1) / np.maximum(seg**2, 1e-12), 0.0, 1.0)
+        d = np.linalg.norm(a + t[:, None] * ab - q, axis=1)
+        i = int(np.argmin(d))
+        s0 = cum[i] + t[i] * seg[i]
+        for j, s in enumerate((s0 - dist, s0 + dist)):
+            s = s % total if closed and total > 0 else float(np.clip(s, 0.0, total))
+            v = int(np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(poly) - 1))
+            u = (s - cum[v]) / max(seg[v], 1e-12) if v < len(seg) else 0.0
+            out[k, j] = a[v] + min(u, 1.0) * ab[v]
+    return out
+
+
+def stem_directions(back: np.ndarray, pts: np.ndarray, outside, dist: float = 6.0, closed: bool = True
+                    ) -> np.ndarray:
+    """(k, 2) unit directions of a covered part's outline (n, 2) away from its T-junctions pts (k, 2): of the
+    two ways along the outline, the one that leaves the covering part. outside: (m, 2) points -> (m,) how far
+    outside the covering part each lies (larger = farther out)."""
+    if not len(pts):
+        return np.zeros((0, 2))
+    ends = walk_along(back, pts, dist, closed)  # (k, 2, 2)
+    score = np.asarray(outside(ends.reshape(-1, 2)), np.float64).reshape(-1, 2)
+    pick = ends[np.arange(len(pts)), np.argmax(score, axis=1)]
+    d = pick - np.asarray(pts, np.float64).reshape(-1, 2)
+    return d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .geometry import part_outline, polygon_crossings, signed_distance
+from .geometry import part_outline, polygon_crossings, signed_distance, stem_directions
 from .model import Character
 from .order import draw_order
 
@@ -24,6 +24,7 @@ class Occlusion:
     junctions: np.ndarray  # (k, 2) float64 px, visible crossings of the two outlines
     adjacent: bool = False  # the two bones share a joint (a joint overlap, a thigh under a skirt on the pelvis)
     joined: bool = False  # painted as one shape (a tail's segments): nothing in the drawing shows this overlap
+    stems: np.ndarray | None = None  # (k, 2) unit: the back part's outline leaving each junction, away from the front
 
 
 def occlusion_pairs(char: Character, pose: np.ndarray, coverage: list[np.ndarray],
@@ -55,7 +56,8 @@ def occlusion_pairs(char: Character, pose: np.ndarray, coverage: list[np.ndarray
             front, back = (i, j) if rank[i] > rank[j] else (j, i)
             joined = char.joined(i, j)  # painted as one shape: the outlines meet in corners, not T-junctions
             junctions = np.zeros((0, 2)) if joined else t_junctions(char, pose, front, back, rank, adjacent, outlines)
-            out.append(Occlusion(front, back, mask, junctions, adjacent, joined))
+            stems = junction_stems(outlines[back], outlines[front], junctions)
+            out.append(Occlusion(front, back, mask, junctions, adjacent, joined, stems))
     return out
 
 
@@ -106,6 +108,14 @@ def t_junctions(char: Character, pose: np.ndarray, front: int, back: int, rank: 
         if all(np.hypot(*(q - u)) > 2.0 for u in uniq):
             uniq.append(q)
     return np.array(uniq).reshape(-1, 2)
+
+
+def junction_stems(back: np.ndarray, front: np.ndarray, junctions: np.ndarray) -> np.ndarray:
+    """(k, 2) unit directions of the back part's outline polygon (n, 2) away from its junctions (k, 2): the way
+    along it that leaves the front part's outline polygon (m, 2), as the drawing shows the covered outline."""
+    poly = front.astype(np.float32)
+    outside = lambda q: [-cv2.pointPolygonTest(poly, (float(x), float(y)), True) for x, y in q]  # noqa: E731
+    return stem_directions(back, junctions, outside)
 
 
 def _polygon_signed_distance(poly: np.ndarray, q: np.ndarray) -> np.ndarray:

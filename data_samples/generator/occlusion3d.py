@@ -26,6 +26,7 @@ import numpy as np
 
 from .bodies3d import FAMILIES, Body, make_body
 from .bvh import Motion, clips, read_bvh
+from .junctions3d import depth_order, pair_junctions
 from .looks3d import STYLE_FAMILIES, make_look3d
 from .render3d import make_camera, on_camera, render
 
@@ -47,7 +48,9 @@ class Sample3D:
     """One keyframe: image (H, W, 3) uint8 RGB; joints, parents; pose (J, 3) float64 x, y px and depth (larger =
     farther); occlusion: per overlapping bone pair (H, W) bool; pairs: per mask front/back bone (Skeleton.bones
     index), their names, adjacent, pixels, front_share; occlusion_union (H, W) bool; foreground (H, W) float32
-    coverage; label: body family; style: style family; view; motion ('bvh:<clip>' or 'procedural')."""
+    coverage; label: body family; style: style family; view; motion ('bvh:<clip>' or 'procedural').
+    Pairs of bones that share no joint also carry t_junctions (k, 2) px and t_stems (k, 2) unit
+    (junctions3d.pair_junctions); adjacent pairs carry none."""
 
     image: np.ndarray
     joints: list[str]
@@ -210,11 +213,13 @@ def _merge(cover: dict, entry: dict, bone_of: dict[int, int]) -> tuple[dict, dic
 def pair_truth(cover: dict, entry: dict, joints: list[str], parents: list[int], foreground: np.ndarray
                ) -> tuple[list[np.ndarray], list[dict]]:
     """Per pair of bones whose shapes overlap by >= MIN_OVERLAP_PX inside the (H, W) bool foreground: the (H, W)
-    bool region and its description (front = the bone entered first on most of it)."""
+    bool region and its description (front = the bone entered first on most of it; for bones that share no
+    joint, the T-junctions of their outlines and their stems, junctions3d.pair_junctions)."""
     children = [c for c in range(len(parents)) if parents[c] >= 0]
     bones = [(parents[c], c) for c in children]
     name = lambda b: f"{joints[bones[b][0]]}-{joints[bones[b][1]]}"  # noqa: E731
     keys = sorted(cover)
+    _, near_bone = depth_order(entry, foreground.shape)
     masks, pairs = [], []
     for i, a in enumerate(keys):
         for b in keys[i + 1:]:
@@ -227,8 +232,12 @@ def pair_truth(cover: dict, entry: dict, joints: list[str], parents: list[int], 
             share = float((ea[both] < eb[both]).mean()) if both.any() else 0.5
             front, back = (a, b) if share >= 0.5 else (b, a)
             adjacent = bool(set(bones[a]) & set(bones[b]))
+            pts, stems = (np.zeros((0, 2)), np.zeros((0, 2))) if adjacent else \
+                pair_junctions(a, b, cover, near_bone)
             masks.append(m)
             pairs.append({"front_bone": int(front), "back_bone": int(back), "front_part": name(front),
                           "back_part": name(back), "adjacent": adjacent, "pixels": n,
-                          "front_share": round(max(share, 1 - share), 3)})
+                          "front_share": round(max(share, 1 - share), 3),
+                          "t_junctions": [[round(float(x), 1), round(float(y), 1)] for x, y in pts],
+                          "t_stems": [[round(float(x), 3), round(float(y), 3)] for x, y in stems]})
     return masks, pairs

@@ -43,7 +43,8 @@ class Sample:
 
     image: (H, W, 3) uint8 RGB as a reader decodes it; joints, parents: the skeleton; pose: (J, 3) float64
     x, y px and z depth (larger = farther); occlusion: per mask (H, W) bool, the nearer part over the farther;
-    pairs: per mask its front/back part names and bones, adjacent, joined, t_junctions (k, 2) px;
+    pairs: per mask its front/back part names and bones, adjacent, joined, t_junctions (k, 2) px, t_stems (k, 2)
+    unit directions of the back part's outline away from each junction;
     occlusion_union: (H, W) bool; foreground: (H, W) float32 coverage in [0, 1] (enclosed paper is 0).
     """
 
@@ -122,7 +123,8 @@ def _pair(char: Character, pose: np.ndarray, o) -> dict:
     return {"front_part": char.part_name(o.front), "back_part": char.part_name(o.back), "front_bone": o.front,
             "back_bone": o.back, "front_joints": list(bones[o.front]), "back_joints": list(bones[o.back]),
             "front_depth": depth(o.front), "back_depth": depth(o.back), "adjacent": o.adjacent, "joined": o.joined,
-            "pixels": int(o.mask.sum()), "t_junctions": [[round(float(x), 1), round(float(y), 1)] for x, y in o.junctions]}
+            "pixels": int(o.mask.sum()), "t_junctions": [[round(float(x), 1), round(float(y), 1)] for x, y in o.junctions],
+            "t_stems": [[round(float(x), 3), round(float(y), 3)] for x, y in o.stems]}
 
 
 # ----------------------------------------------------------------------------- placing a character in the frame
