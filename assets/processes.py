@@ -36,6 +36,7 @@ ENV_SWITCH = "INBETWEEN_PROCESSES"  # "0": every op in the calling thread (a bat
 
 _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
+_started = threading.Event()  # set once the current pool's workers are started
 
 
 def enabled() -> bool:
@@ -48,9 +49,10 @@ def _ignore_sigint() -> None:
 
 
 def pool() -> ProcessPoolExecutor | None:
-    """This process's pool, started on first use (None when disabled); its processes start right away, so that
-    the fork server's imports overlap whatever the caller does next."""
-    global _pool
+    """This process's pool, started on first use (None when disabled). Its processes start on a thread of their
+    own, right away: the fork server's imports (about a second) overlap whatever the caller does next, and an op
+    submitted meanwhile waits for them (`run`)."""
+    global _pool, _started
     if not enabled():
         return None
     with _lock:
@@ -58,10 +60,22 @@ def pool() -> ProcessPoolExecutor | None:
             ctx = multiprocessing.get_context("forkserver")
             ctx.set_forkserver_preload(list(PRELOAD))
             _pool = ProcessPoolExecutor(WORKERS, mp_context=ctx, initializer=_ignore_sigint)
-            with _main_module_hidden():
-                for _ in range(WORKERS):  # each submit starts a worker: all of them now, not at the first op
-                    _pool.submit(int)
+            _started = threading.Event()
+            threading.Thread(target=_start_workers, args=(_pool, _started), name="inbetween-processes",
+                             daemon=True).start()
         return _pool
+
+
+def _start_workers(executor: ProcessPoolExecutor, started: threading.Event) -> None:
+    """Start every worker of the pool now, not at the first op (each submit starts one)."""
+    try:
+        with _main_module_hidden():
+            for _ in range(WORKERS):
+                executor.submit(int)
+    except Exception:  # noqa: BLE001  (a broken pool is reported by the first op that uses it)
+        pass
+    finally:
+        started.set()
 
 
 @contextmanager
@@ -84,6 +98,7 @@ def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     executor = pool()
     if executor is None:
         return fn(*args, **kwargs)
+    _started.wait()  # the workers were started with this process's __main__ hidden: never by an op's submit
     try:
         return executor.submit(_call, fn, args, kwargs).result()
     except BrokenProcessPool:
