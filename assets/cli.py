@@ -35,7 +35,8 @@ EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report it
 def _settings(args) -> Settings:
     return Settings(blend=getattr(args, "blend", "optimal"), template_mode=getattr(args, "template", "optimized"),
                     occlusion=getattr(args, "occlusion", Settings().occlusion),
-                    register_lanes=getattr(args, "lanes", "registered") == "registered")
+                    register_lanes=getattr(args, "lanes", "registered") == "registered",
+                    implied_cuts=getattr(args, "cuts", "implied") == "implied")
 
 
 def _exports(text: str) -> tuple[str, ...]:
@@ -56,12 +57,18 @@ def _parser() -> argparse.ArgumentParser:
     def occlusion_flag(p):
         p.add_argument("--occlusion", choices=OCCLUSION_PREDICTORS, default=Settings().occlusion,
                        help="predict occlusion masks from the skeleton alone, the skeleton's shaped by the drawing "
-                            "(hybrid), or read them off the drawing (a small network, the skeleton as a guide)")
+                            "(hybrid), those split into one region per overlapping bone pair (pairs), or read them "
+                            "off the drawing (a small network, the skeleton as a guide)")
 
     def lanes_flag(p):
         p.add_argument("--lanes", choices=["registered", "skeleton"], default="registered",
                        help="registered: each lane is registered onto the other key's drawing and faded in over the "
                             "segment (docs/lanes.md); skeleton: the lanes follow the skeleton alone")
+
+    def cuts_flag(p):
+        p.add_argument("--cuts", choices=["implied", "clicked"], default="implied",
+                       help="implied: an occlusion region without T-junction clicks also tries the cut its outline "
+                            "implies (docs/method.md); clicked: the paper's switching rule alone")
 
     def output_flags(p):
         p.add_argument("--export", type=_exports, default=DEFAULT_EXPORTS, metavar="LIST",
@@ -75,6 +82,7 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
         occlusion_flag(p)
         lanes_flag(p)
+        cuts_flag(p)
         p.add_argument("--verbose", action="store_true", help="show Dagster's event log live")
         p.add_argument("--debug", action="store_true", help="print the full trace when a stage fails")
 
@@ -98,6 +106,7 @@ def _parser() -> argparse.ArgumentParser:
     s.add_argument("--template", choices=["optimized", "single-layer"], default="optimized")
     occlusion_flag(s)
     lanes_flag(s)
+    cuts_flag(s)
     m = sub.add_parser("masks", help="write a shot's masks in the form masks.foreground / masks.occlusion accept")
     m.add_argument("shot_dir")
     m.add_argument("--out", required=True)
@@ -114,6 +123,7 @@ def _parser() -> argparse.ArgumentParser:
     e.add_argument("--out", default=None)
     occlusion_flag(e)
     lanes_flag(e)
+    cuts_flag(e)
     u = sub.add_parser("ui", help="open the Dagster UI on this project's instance")
     u.add_argument("--port", type=int, default=3000, help="port on 127.0.0.1")
     ed = sub.add_parser("edit", help="annotate a shot in the browser; saving reruns it incrementally")

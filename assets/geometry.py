@@ -99,7 +99,8 @@ def _template(k: int):
         refined: RefinedMasks = env.read(f"key{k}/refined_masks")
         solver = Solver(s.mu, s.grad_tol, s.max_iter, s.topology_budget)
         template = env.offload(optimize_topology, refined, shot.key_pose(k), _targets(shot, k), shot.skeleton,
-                               mode=s.template_mode, solver=solver, previous=_previous_template(env, k))
+                               mode=s.template_mode, solver=solver, previous=_previous_template(env, k),
+                               implied_cuts=s.implied_cuts)
         for w in template.warnings:
             env.context.log.warning(w)
         meta = {"V": len(template.rest), "F": len(template.faces), "layers": int(template.face_layer.max()) + 1,

@@ -29,7 +29,11 @@ halving steps (at most 2 log2 of its length more). Only a region's first
 topology is deformed from rest along the motion; every other one starts from
 the solution of its neighbour (the other cut of an even region, the family's
 best cusp so far; ops.geometry.warmstart), solved at the other pose: a
-fraction of the iterations. Topologies are deformed by projected Newton
+fraction of the iterations, unless the carried-over positions start above
+WARM_START_LIMIT times the neighbour's energy (a cut moved across a limb
+carries a crumpled start): then it too is deformed from rest along the motion,
+which over the samples' 120 warm-startable topologies took 40 s where always
+warm took 56 s and always from rest 84 s, the chosen cuts unchanged. Topologies are deformed by projected Newton
 (Solver.method), which near a minimum takes 5-15x fewer iterations than the
 lanes' L-BFGS and reaches the same energies there (ops.geometry.deform). (Before: optuna's TPE over all 2 (n - k) options,
 up to 30 trials each deformed from rest, so turning an even region odd with
@@ -47,6 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ops.geometry.deform import Deformer, count_flipped
+from ops.geometry.implied_cut import implied_labels, switches_of
 from ops.geometry.mesh import split_fans
 from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import TemplateBase, build_template
@@ -55,6 +60,7 @@ from ops.shotio.interpolate import interpolate_pose
 from ops.types import RefinedMasks, Skeleton, Template, handle_targets
 
 PATH_STEPS = 4  # over the samples' topologies 2-4 steps reach the same energies; 4 takes the fewest iterations
+WARM_START_LIMIT = 3.0  # a carried-over start above this multiple of its neighbour's energy: solved from rest
 MAX_CUSP_MOVES = 8  # topologies an odd region's best cusp family may try along its stretch after the 2k probes
 
 
@@ -207,15 +213,20 @@ def handle_path(base: TemplateBase, pose_self: np.ndarray, pose_other: np.ndarra
 
 
 def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.ndarray],
-             solver: Solver = Solver(), x0: np.ndarray | None = None) -> tuple[float, Incised, np.ndarray | None]:
+             solver: Solver = Solver(), x0: np.ndarray | None = None, x0_max_energy: float = np.inf
+             ) -> tuple[float, Incised, np.ndarray | None, bool]:
     """Energy (inf on failure) of deforming the incised template along handle targets path (each (h, 2)
-    pixels), the incised template, and its vertices (n, 2) pixels at the last targets (None on failure).
+    pixels), the incised template, its vertices (n, 2) pixels at the last targets (None on failure), and
+    whether the solve started from x0.
 
     From rest the deformation follows the whole path; from x0 ((n, 2) pixels, fold-free: a neighbouring
-    topology's solution carried over, ops.geometry.warmstart) it is solved at the last targets only."""
+    topology's solution carried over, ops.geometry.warmstart) it is solved at the last targets only, unless
+    x0's energy there exceeds x0_max_energy: then from rest after all (module docstring)."""
     inc = incise(base, assignments)
     try:
         d = Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method)
+        if x0 is not None and not d.energy(x0, path[-1]) <= x0_max_energy:
+            x0 = None
         if x0 is None:
             res = d.solve_along(path, grad_tol=solver.grad_tol, max_iter=solver.max_iter)
         else:
@@ -223,7 +234,7 @@ def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.nd
         energy, x = (res.energy, res.x) if np.isfinite(res.energy) else (np.inf, None)
     except (ValueError, RuntimeError, np.linalg.LinAlgError):
         energy, x = np.inf, None
-    return float(energy), inc, x
+    return float(energy), inc, x, x0 is not None
 
 
 def _key(assignments: list[Assignment]) -> tuple:
@@ -239,6 +250,7 @@ class _Scored:
     inc: Incised
     assignments: list[Assignment]
     x: list[np.ndarray | None]  # per target pose, (n, 2) pixels there (None on failure)
+    energies: list[float]  # per target pose, the energy there
     warm: bool  # started from a neighbour's solution (else from rest, along the motion)
 
 
@@ -256,20 +268,20 @@ class _Search:
         """The evaluated topology of `assignments` (one per region); neighbours: cache keys, in preference order."""
         key = _key(assignments)
         if key not in self.cache:
-            energy, xs, warm, inc = 0.0, [], True, None
+            es, xs, warm, inc = [], [], True, None
             for i, path in enumerate(self.paths):
-                x0 = self._warm_start(assignments, neighbours, i)
-                e, inc, x = evaluate(self.base, assignments, path, self.solver, x0)
-                if x0 is not None and not np.isfinite(e):  # the warm start failed: from rest after all
-                    e, inc, x = evaluate(self.base, assignments, path, self.solver)
-                    x0 = None
-                energy, warm = energy + e, warm and x0 is not None
+                x0, limit = self._warm_start(assignments, neighbours, i)
+                e, inc, x, warmed = evaluate(self.base, assignments, path, self.solver, x0, limit)
+                if warmed and not np.isfinite(e):  # the warm start failed: from rest after all
+                    e, inc, x, warmed = evaluate(self.base, assignments, path, self.solver)
+                es, warm = es + [e], warm and warmed
                 xs.append(x)
-            self.cache[key] = _Scored(float(energy), inc, list(assignments), xs, warm)
+            self.cache[key] = _Scored(float(sum(es)), inc, list(assignments), xs, es, warm)
         return self.cache[key]
 
-    def _warm_start(self, assignments: list[Assignment], neighbours, i: int) -> np.ndarray | None:
-        """Fold-free (n, 2) pixels at target i carried over from the first neighbour that allows it, else None.
+    def _warm_start(self, assignments: list[Assignment], neighbours, i: int) -> tuple[np.ndarray | None, float]:
+        """Fold-free (n, 2) pixels at target i carried over from the first neighbour that allows it (else None),
+        and the most energy they may start with: WARM_START_LIMIT times the neighbour's there.
 
         A region whose cut is the neighbour's with every label flipped (the other cut of an even count, the
         other family of an odd one at the same cusp) sews its pocket where the neighbour sewed its front: its
@@ -289,8 +301,8 @@ class _Search:
                     source_faces[front], source_faces[pocket] = src.inc.faces[pocket], src.inc.faces[front]
             x0 = transfer_positions(src.x[i], source_faces, inc.faces, inc.rest)
             if count_flipped(x0, inc.faces) == 0:
-                return x0
-        return None
+                return x0, WARM_START_LIMIT * src.energies[i]
+        return None, np.inf
 
 
 @dataclass
@@ -331,6 +343,16 @@ def _search_even(region: _Region, junctions: np.ndarray) -> Assignment:
     return b if eb < ea else a
 
 
+def _search_implied(region: _Region, implied: Assignment) -> Assignment:
+    """A region without T-junctions: the better of its two uniform cuts and the cut its outline implies
+    (ops.geometry.implied_cut), the last warm-started from the better of the first two."""
+    a, b = alternating(np.zeros(0, np.int64), 0), alternating(np.zeros(0, np.int64), 1)
+    scored = {0: region.energy(a), 1: region.energy(b, [a])}
+    best = a if scored[0] <= scored[1] else b
+    e = region.energy(implied, [best, b if best is a else a])
+    return implied if e < min(scored.values()) else best
+
+
 def _search_odd(region: _Region, n: int, junctions: np.ndarray) -> Assignment:
     """Best cusp assignment found: each (stretch, first label) family probed with the cusp mid-stretch, then the
     best family's cusp moved along its stretch in halving steps while that lowers the energy."""
@@ -368,18 +390,33 @@ def _search_odd(region: _Region, n: int, junctions: np.ndarray) -> Assignment:
 
 
 def region_key(refined: RefinedMasks, r: int, pose_self: np.ndarray, targets: list[np.ndarray], mode: str,
-               solver: Solver) -> str:
+               solver: Solver, implied_cuts: bool = True) -> str:
     """Digest (24 hex) of what region r's cut search reads: its boundary polyline (pixels, to 1e-6), its
-    T-junction indices and front bones, the key's pose and every target pose, the template mode and the
-    solver's settings."""
+    T-junction indices and front bones, the key's pose and every target pose, the template mode, the solver's
+    settings, and for a region without T-junctions whether its implied cut is tried and its mask (which the
+    implied cut reads)."""
     h = hashlib.sha256()
-    for a in (np.round(np.asarray(refined.boundaries[r], np.float64), 6),
-              np.unique(np.asarray(refined.junctions[r], np.int64)), np.asarray(refined.front_bones[r], np.int64),
-              np.asarray(pose_self, np.float64), *(np.asarray(t, np.float64) for t in targets)):
+    junctions = np.unique(np.asarray(refined.junctions[r], np.int64))
+    implied = implied_cuts and len(junctions) == 0
+    for a in (np.round(np.asarray(refined.boundaries[r], np.float64), 6), junctions,
+              np.asarray(refined.front_bones[r], np.int64), np.asarray(pose_self, np.float64),
+              *(np.asarray(t, np.float64) for t in targets),
+              *((np.packbits(refined.occlusion[r]), np.packbits(refined.foreground)) if implied else ())):
         h.update(str(a.shape).encode())
         h.update(np.ascontiguousarray(a).tobytes())
-    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS)).encode())
+    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS)
+                  + (("implied",) if implied else ())).encode())
     return h.hexdigest()[:24]
+
+
+def implied_cut(base: TemplateBase, refined: RefinedMasks, r: int, pose: np.ndarray, skeleton: Skeleton
+                ) -> Assignment | None:
+    """Region r's cut as its outline implies it (ops.geometry.implied_cut), or None where that is uniform (one
+    of the two cuts a region without T-junctions has anyway)."""
+    labels = implied_labels(base.boundaries[r], refined.occlusion[r], refined.foreground, refined.front_bones[r],
+                            pose, skeleton)
+    switches, segment_labels_ = switches_of(labels)
+    return Assignment(switches=switches, labels=segment_labels_) if len(switches) else None
 
 
 def _first_option(n: int, junctions: np.ndarray) -> Assignment:
@@ -411,16 +448,18 @@ def optimize_topology(
     max_area: float | None = None,
     solver: Solver = Solver(),
     previous: Template | None = None,
+    implied_cuts: bool = True,
 ) -> Template:
     """Build the template at pose_self (J, 3) and pick per region the cut minimizing the energy at pose_other (J, 3),
     or summed over a list of target poses (the neighbouring keys' poses: the key deforms well on both sides).
 
     previous: the template an earlier run built for this keyframe; its regions' cuts are kept, unsearched,
-    for the regions whose region_key it records (Template.reused_regions)."""
+    for the regions whose region_key it records (Template.reused_regions). implied_cuts: a region without
+    T-junctions also tries the cut its outline implies (ops.geometry.implied_cut), besides its two uniform ones."""
     base = build_template(refined, pose_self, skeleton, mode, max_area)
     targets = [pose_other] if np.ndim(pose_other) == 2 else list(pose_other)
     search = _Search(base, [handle_path(base, pose_self, t, skeleton.parents) for t in targets], solver)
-    keys = [region_key(refined, r, pose_self, targets, mode, solver) for r in range(base.n_regions)]
+    keys = [region_key(refined, r, pose_self, targets, mode, solver, implied_cuts) for r in range(base.n_regions)]
     choice, reused = [], []
     for r in range(base.n_regions):
         n, jn = len(base.boundaries[r]), base.junctions[r]
@@ -435,7 +474,11 @@ def optimize_topology(
         budget = solver.region_budget_s
         region = _Region(search, choice, r, time.monotonic() + (budget if budget is not None else np.inf))
         n, jn = len(base.boundaries[r]), base.junctions[r]
-        choice[r] = _search_even(region, jn) if len(jn) % 2 == 0 else _search_odd(region, n, jn)
+        implied = implied_cut(base, refined, r, pose_self, skeleton) if implied_cuts and len(jn) == 0 else None
+        if implied is not None:
+            choice[r] = _search_implied(region, implied)
+        else:
+            choice[r] = _search_even(region, jn) if len(jn) % 2 == 0 else _search_odd(region, n, jn)
         if region.out_of_budget:
             over.append(r)
     winner = search.score(choice, list(search.cache)[-1:])

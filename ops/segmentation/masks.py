@@ -84,7 +84,7 @@ def build_masks(
 
     manual_occlusion None or empty = predict (the shot format cannot say "no regions"); otherwise exactly
     those regions. `occlusion` picks the predictor (Settings.occlusion): "skeleton", "hybrid" (the skeleton rule's
-regions shaped by the drawing) or "drawing". `source`
+regions shaped by the drawing), "pairs" (the hybrid's, one region per overlapping bone pair) or "drawing". `source`
     names the keyframe file in errors.
     """
     if occlusion not in OCCLUSION_PREDICTORS:
@@ -107,12 +107,17 @@ regions shaped by the drawing) or "drawing". `source`
     elif predicted:
         regions, fronts, w = skeleton_occlusion(body, pose, skeleton)
         warnings += w
-        if occlusion == "hybrid" and regions:
+        if occlusion in ("hybrid", "pairs") and regions:
             from ops.segmentation.occlusion_drawing import shape_by_drawing  # torch: only here
             from ops.segmentation.occlusion_pairs import check_fronts
 
             regions = shape_by_drawing(regions, fronts, drawing, body, pose, skeleton, parts)
-            fronts, w = check_fronts(regions, fronts, drawing, body, pose, skeleton, source)  # the drawing's word
+            if occlusion == "pairs":  # one region per overlapping bone pair, its front read as the network's are
+                from ops.segmentation.occlusion_drawing import split_by_pairs
+
+                regions, fronts, w = split_by_pairs(regions, drawing, body, pose, skeleton, source)
+            else:
+                fronts, w = check_fronts(regions, fronts, drawing, body, pose, skeleton, source)  # the drawing's word
             warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included

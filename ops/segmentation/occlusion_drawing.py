@@ -187,6 +187,22 @@ def predict_occlusion(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndar
     return regions, fronts, warnings + w
 
 
+def split_by_pairs(regions: list[np.ndarray], drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray,
+                   skeleton: Skeleton, source: str = "drawing") -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """Other predictors' (H, W) bool regions as one region per overlapping bone pair, back to front, with their (f,)
+    int64 front bones and warnings, as the network's are split (occlusion_pairs.pair_regions; the pixels where two
+    joined bones meet left out). The skeleton rule joins every overlap that touches another into one region: an
+    arm over the torso and the near thigh over the far one in a side view become one region whose outline and cut
+    serve neither. drawing: (H, W, C) float32 (0-1) or uint8; foreground: (H, W) bool; pose: (J, 3)."""
+    fg = np.asarray(foreground, bool)
+    mask = np.any(regions, axis=0) & fg if regions else np.zeros_like(fg)
+    if not mask.any():
+        return [], [], []
+    radii = bone_radii(fg, pose, skeleton)
+    mask &= ~joined_pixels(mask, fg, pose, skeleton, radii)
+    return pair_regions(mask, drawing, fg, pose, skeleton, radii, source)
+
+
 def shape_by_drawing(regions: list[np.ndarray], fronts: list[np.ndarray], drawing: np.ndarray,
                      foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton, parts: tuple | None = None
                      ) -> list[np.ndarray]:

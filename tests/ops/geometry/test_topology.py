@@ -11,6 +11,7 @@ from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import build_template
 from ops.geometry.topology import (
     MAX_CUSP_MOVES,
+    WARM_START_LIMIT,
     Assignment,
     Solver,
     _key,
@@ -176,12 +177,12 @@ def test_optimize_picks_the_lowest_energy():
     tpl = optimize_topology(refined, p0, p1, sk)
     base = build_template(refined, p0, sk)
     scored = [evaluate(base, [a], _path(base, sk, p0, p1)) for a in enumerate_assignments(20, refined.junctions[0])]
-    energies = [e for e, _, _ in scored]
+    energies = [e for e, *_ in scored]
     assert tpl.trials == 2
     assert np.isclose(tpl.energy, min(energies))
     assert tpl.cut_assignment[0].tolist() == ([0, 1] if energies[0] <= energies[1] else [1, 0])
     # the winner's deformation to the other pose is unfolded, at the recorded energy
-    _, inc, x = scored[int(np.argmin(energies))]
+    _, inc, x, _ = scored[int(np.argmin(energies))]
     assert count_flipped(x, inc.faces) == 0
     d = Deformer(inc.rest, inc.faces, inc.handles)
     assert np.isclose(d.energy(x, tpl.handle_targets(p1)), tpl.energy)
@@ -268,13 +269,34 @@ def test_the_other_cut_starts_from_its_neighbour_with_front_and_pocket_swapped()
     inc_b = incise(base, [b])
     plain = transfer_positions(first.x[0], first.inc.faces, inc_b.faces, inc_b.rest)
     assert count_flipped(plain, inc_b.faces) > 0
+    x0, limit = search._warm_start([b], [next(iter(search.cache))], 0)
+    assert x0 is not None and count_flipped(x0, inc_b.faces) == 0 and limit == WARM_START_LIMIT * first.energies[0]
     scored = search.score([b], [next(iter(search.cache))])
-    assert scored.warm
+    # started from there unless that start is crumpled beyond the limit (then from rest along the motion)
+    start = Deformer(inc_b.rest, inc_b.faces, inc_b.handles).energy(x0, search.paths[0][-1])
+    assert scored.warm == (start <= limit)
     assert np.isclose(scored.energy, evaluate(base, [b], search.paths[0])[0], rtol=1e-2)
     # without a usable neighbour (no solution to carry) the cut is deformed from rest along the motion
     cold = _Search(base, search.paths, Solver())
-    cold.cache[_key([a])] = type(first)(np.inf, first.inc, [a], [None], False)
+    cold.cache[_key([a])] = type(first)(np.inf, first.inc, [a], [None], [np.inf], False)
     assert not cold.score([b], [_key([a])]).warm
+
+
+@pytest.mark.parametrize("limit, warm", [(np.inf, True), (1.0, False)])
+def test_a_crumpled_warm_start_is_solved_from_rest(monkeypatch, limit, warm):
+    # the carried-over start of the other cut begins above its neighbour's energy (crumpled near the cut): with no
+    # limit it is solved from there, with a limit of 1x from rest along the motion; both reach the same minimum
+    import ops.geometry.topology as topology
+
+    monkeypatch.setattr(topology, "WARM_START_LIMIT", limit)
+    refined, sk, p0, p1 = capsule_scene()
+    base = build_template(refined, p0, sk)
+    search = _Search(base, [_path(base, sk, p0, p1)], Solver())
+    a, b = alternating(base.junctions[0], 0), alternating(base.junctions[0], 1)
+    search.score([a])
+    scored = search.score([b], [_key([a])])
+    assert scored.warm == warm
+    assert np.isclose(scored.energy, evaluate(base, [b], search.paths[0])[0], rtol=1e-2)
 
 
 def test_two_targets_sum_the_energies_of_each():
@@ -303,7 +325,7 @@ def test_odd_search_grows_linearly_with_the_junctions(junctions):
     cusp = int(np.setdiff1d(switches, junctions)[0])
     a = Assignment(switches=switches, labels=tpl.cut_assignment[0], cusp=cusp)
     assert np.array_equal(a.labels, alternating(switches, int(a.labels[0])).labels)
-    e, _, _ = evaluate(base, [a], _path(base, sk, p0, p1))
+    e, *_ = evaluate(base, [a], _path(base, sk, p0, p1))
     assert np.isclose(e, tpl.energy, rtol=1e-3)
 
 

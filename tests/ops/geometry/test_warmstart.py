@@ -18,12 +18,12 @@ def test_warm_start_carries_a_solution_between_cuts():
     path = _path(base, sk, p0, p1)
     stretch = cusp_stretches(20, base.junctions[0])[0]
     here, next_to = (cusp_assignment(base.junctions[0], int(c), 0) for c in stretch[8:10])
-    _, inc0, x0 = evaluate(base, [here], path)
+    _, inc0, x0, _ = evaluate(base, [here], path)
     # onto its own topology the transfer is exact
     assert np.array_equal(transfer_positions(x0, inc0.faces, inc0.faces, inc0.rest), x0)
     # the cusp one vertex on: fold-free, and solved from there at the other pose alone it reaches the energy
     # the whole path from rest reaches, in a fraction of the iterations
-    e1, inc1, _ = evaluate(base, [next_to], path)
+    e1, inc1, *_ = evaluate(base, [next_to], path)
     start = transfer_positions(x0, inc0.faces, inc1.faces, inc1.rest)
     assert count_flipped(start, inc1.faces) == 0
     d = Deformer(inc1.rest, inc1.faces, inc1.handles)

@@ -133,3 +133,31 @@ def test_the_hybrid_regions_fronts_follow_the_drawing():
     regions, fronts, _ = predict_occlusion(fg, pose, skeleton)
     checked, warnings = check_fronts(regions, fronts, drawing, fg, pose, skeleton)
     assert warnings == [] and all(np.array_equal(a, b) for a, b in zip(checked, fronts))
+
+
+def test_split_by_pairs_gives_each_overlapping_bone_pair_its_own_region_and_front():
+    """`--occlusion pairs`: one region over two forearms crossing the torso (as the skeleton rule joins touching
+    overlaps into one) comes back as two disjoint regions inside it, one per bone pair, each with its own forearm
+    in front as the drawing shows."""
+    from ops.segmentation.occlusion_drawing import split_by_pairs
+
+    shape = (256, 256)
+    torso = capsule(shape, (128, 50), (128, 210), 34)
+    arm1 = capsule(shape, (150, 70), (210, 100), 12) | capsule(shape, (210, 100), (60, 120), 12)
+    arm2 = capsule(shape, (106, 70), (46, 160), 12) | capsule(shape, (46, 160), (200, 180), 12)
+    pose = np.array([[128, 210, 0], [128, 50, 0], [150, 70, -1], [210, 100, -1], [60, 120, -1],
+                     [106, 70, -1], [46, 160, -1], [200, 180, -1.0]])
+    skeleton = Skeleton(("hips", "neck", "r_shoulder", "r_elbow", "r_hand", "l_shoulder", "l_elbow", "l_hand"),
+                        np.array([-1, 0, 1, 2, 3, 1, 5, 6]))
+    fg = torso | arm1 | arm2
+    fore1, fore2 = capsule(shape, (210, 100), (60, 120), 12), capsule(shape, (46, 160), (200, 180), 12)
+    joined = torso & (fore1 | fore2)
+    drawing = ink_drawing((outline(torso) & ~(arm1 | arm2)) | outline(arm1) | outline(arm2))
+    regions, fronts, _ = split_by_pairs([joined], drawing, fg, pose, skeleton)
+    assert len(regions) == 2 and len(fronts) == 2
+    assert (np.sum(regions, axis=0) <= 1).all() and not (np.any(regions, axis=0) & ~joined).any()
+    for fore, hand in ((fore1, 4), (fore2, 7)):
+        r = max(range(2), key=lambda i: (regions[i] & fore).sum())
+        assert (regions[r] & fore & torso).sum() > 0.8 * (fore & torso).sum()
+        assert fronts[r].tolist() == [hand - 1]  # the forearm's bone (elbow -> hand), by its child joint - 1
+    assert split_by_pairs([], drawing, fg, pose, skeleton) == ([], [], [])
