@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from ops.errors import ShotError
+from ops.shotio.atomic import replace_into
 from ops.shotio.load import FORMAT_V2, load_shot
 from ops.types import Shot
 
@@ -132,7 +133,7 @@ def write_atomic(path: Path, data: bytes) -> None:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
+        replace_into(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

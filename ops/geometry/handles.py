@@ -12,6 +12,15 @@ handle is drawn (the rest mesh needs no deformation and the keyframe is
 reproduced). Every component of the domain that a bone crosses gets a handle
 on that bone, so a hand drawn apart from its arm follows the arm instead of
 floating at rest.
+
+A coarse skeleton's bone need not run along what it moves: a hand parented to
+the torso (no elbow) crosses the paper between the body and the bent arm, and
+its handles, snapped to the nearest drawing, would pin the belly to the arm.
+A bone whose straight line lies more than STRAY_FRACTION outside the drawing
+has its handles on the drawn limb instead: at the same fractions of the
+shortest path inside the drawing between its two joints (kept off the
+outlines), each keeping its offset from its skeleton point as every handle does,
+so the keyframe is still reproduced exactly and the limb turns with its bone.
 """
 from __future__ import annotations
 
@@ -20,6 +29,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 from scipy import ndimage
+from skimage.graph import route_through_array
 
 from ops.geometry.snap import snap_into
 from ops.types import MIN_BONE_PX, Skeleton, bone_frames
@@ -28,6 +38,8 @@ from ops.warning_subject import about, inside_point
 SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (its outlines are DP-simplified by 1 px)
 BONE_SAMPLES = 33  # points tried along a bone when a component needs a handle
 BONE_FRACTIONS = (1 / 6, 2 / 6, 0.5, 4 / 6, 5 / 6)  # handles along each bone besides its joints
+STRAY_FRACTION = 0.25  # a bone's straight line more than this far outside the drawing: handles on the drawn limb
+MAX_DETOUR = 3.0  # the drawn limb may be at most this many times the bone's length (else the bone line is kept)
 
 
 @dataclass
@@ -99,16 +111,18 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
     labels, n = ndimage.label(safe, structure=np.ones((3, 3), bool))
     snapped, moved = snap_into(safe, P)
     warnings: list[str] = []
-    for i in np.nonzero(moved)[0]:
+    dist = ndimage.distance_transform_edt(safe)
+    drawn = np.where(moved[:, None], snapped, P)
+    on_limb = _handles_on_drawn_limbs(drawn, xy, skeleton, inside, safe, dist, warnings)
+    for i in np.nonzero(moved & ~on_limb)[0]:  # a handle placed on a drawn limb was not snapped
         c, r = int(np.clip(round(P[i, 0]), 0, shape[1] - 1)), int(np.clip(round(P[i, 1]), 0, shape[0] - 1))
         if not inside[r, c] or not (0 <= P[i, 0] <= shape[1] - 1 and 0 <= P[i, 1] <= shape[0] - 1):
             d = float(np.linalg.norm(snapped[i] - P[i]))
             warnings.append(about("handle", f"was {d:.1f} px outside the drawing; moved to its nearest point",
                                   name=names[i], at=P[i]))
-    P = np.where(moved[:, None], snapped, P)
+    P = drawn
     covered = set(labels[P[:, 1].round().astype(int), P[:, 0].round().astype(int)].tolist())
     extra_P, extra_W, extra_names = [], [], []
-    dist = ndimage.distance_transform_edt(safe)
     u = np.linspace(0.0, 1.0, BONE_SAMPLES)
     for comp in sorted(set(range(1, n + 1)) - covered):
         best = None  # (depth inside the component, bone, u, pixel)
@@ -140,3 +154,54 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
     off = P - W @ xy
     offsets = np.stack([(off * along).sum(1), (off * across).sum(1)], axis=1)
     return Handles(P, W, offsets, frames, names, warnings)
+
+
+def drawn_path(safe: np.ndarray, dist: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:
+    """(m, 2) pixels (x, y) of the shortest path from a to b (each (2,) pixels, inside `safe` (H, W) bool) that
+    stays inside it, pulled off the outlines (a step costs 1 + 2 / (1 + its distance to them), dist (H, W) px);
+    None if no path joins them."""
+    cost = np.where(safe, 1.0 + 2.0 / (1.0 + dist), np.inf)
+    h, w = safe.shape
+    start, end = ((int(np.clip(round(p[1]), 0, h - 1)), int(np.clip(round(p[0]), 0, w - 1))) for p in (a, b))
+    if not (safe[start] and safe[end]):
+        return None
+    try:
+        rc, _ = route_through_array(cost, start, end, fully_connected=True, geometric=True)
+    except ValueError:  # a and b in different parts of the drawing
+        return None
+    return np.asarray(rc, np.float64)[:, ::-1]
+
+
+def _handles_on_drawn_limbs(P: np.ndarray, xy: np.ndarray, skeleton: Skeleton, inside: np.ndarray,
+                            safe: np.ndarray, dist: np.ndarray, warnings: list[str]) -> np.ndarray:
+    """Move the BONE_FRACTIONS handles of every bone whose straight line strays from the drawing onto the drawn
+    path between its (already snapped) joint handles, in place in P (J + f B, 2); xy (J, 2) the joints. Returns
+    the (J + f B,) bool handles so placed; appends one warning per such bone."""
+    J, bones = len(skeleton.joints), skeleton.bones
+    placed = np.zeros(len(P), bool)
+    u = np.linspace(0.0, 1.0, BONE_SAMPLES)[1:-1]
+    h, w = inside.shape
+    for bi, (p, c) in enumerate(bones):
+        length = float(np.linalg.norm(xy[c] - xy[p]))
+        if length <= MIN_BONE_PX:
+            continue
+        pts = xy[p] + u[:, None] * (xy[c] - xy[p])
+        cc, rr = np.round(pts[:, 0]).astype(int), np.round(pts[:, 1]).astype(int)
+        ok = (cc >= 0) & (cc < w) & (rr >= 0) & (rr < h)
+        stray = 1.0 - float(inside[rr[ok], cc[ok]].sum()) / len(u)
+        if stray <= STRAY_FRACTION:
+            continue
+        path = drawn_path(safe, dist, P[p], P[c])
+        if path is None or len(path) < 2:
+            continue
+        arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(path, axis=0), axis=1))])
+        if arc[-1] > MAX_DETOUR * length:
+            continue
+        rows = J + np.arange(len(BONE_FRACTIONS)) * len(bones) + bi
+        P[rows] = np.stack([np.interp(np.asarray(BONE_FRACTIONS) * arc[-1], arc, path[:, k]) for k in (0, 1)], 1)
+        placed[rows] = True
+        warnings.append(about("bone", f"runs {100 * stray:.0f}% outside the drawing; its handles follow the drawn "
+                              "limb between its joints", name=f"{skeleton.joints[p]}-{skeleton.joints[c]}",
+                              at=xy[p] + 0.5 * (xy[c] - xy[p]),
+                              fix="add a joint where the drawn limb bends (an elbow, a knee) to steer it exactly"))
+    return placed

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ops.errors import ShotError
+from ops.shotio.atomic import replace_into
 
 FORMAT_V1 = "inbetween-shot/1"
 FORMAT_V2 = "inbetween-shot/2"
@@ -112,7 +113,7 @@ def write_json(path: str | Path, data: dict) -> Path:
         with os.fdopen(fd, "w") as f:
             json.dump(data, f, indent=1)
             f.write("\n")
-        os.replace(tmp, path)
+        replace_into(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ops.shotio.atomic import replace_into
 from ops.shotio.image_io import composite_over_white, to_rgba, write_image
 
 
@@ -61,7 +62,7 @@ def write_preview_video(path: str | Path, frames: np.ndarray, fps: float = 8) ->
             # Pillow merges identical consecutive frames (summing their durations), so a
             # static stretch plays for the right time but counts as one GIF frame.
             imageio.mimwrite(tmp, images, format="GIF", duration=1000.0 / fps, loop=0)
-        os.replace(tmp, path)
+        replace_into(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

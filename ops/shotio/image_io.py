@@ -26,6 +26,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from ops.errors import ShotError
+from ops.shotio.atomic import replace_into
 
 MAX_SIDE = 8192  # refuse larger images before decoding their pixels
 MIN_SIDE = 32  # a smaller drawing has too few pixels to mesh a character
@@ -190,7 +191,7 @@ def write_image(path: str | Path, image: np.ndarray, dtype: str = "uint8") -> Pa
             raise OSError(f"{path}: cannot write image: {oiio.geterror()}")
         out.write_image(img)
         out.close()
-        os.replace(tmp, path)
+        replace_into(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)

@@ -256,3 +256,46 @@ def test_a_slit_triangle_fails_on_is_left_out(monkeypatch):
     base = build_template(refined, pose, skeleton)
     assert any("1 contact slit(s) left out" in w for w in base.warnings)
     assert signed_areas(base.V, base.F).min() > 0
+
+
+def _bent_arm_scene():
+    """A torso and an arm bent at a right angle (upper arm out, forearm down), 128 px, drawn as one outline: the
+    (H, W) bool masks of the torso and of the arm, and the domain's outer loop (pixels)."""
+    shape = (128, 128)
+    torso, arm = np.zeros(shape, np.uint8), np.zeros(shape, np.uint8)
+    cv2.rectangle(torso, (38, 25), (62, 105), 1, -1)
+    cv2.rectangle(arm, (55, 34), (106, 46), 1, -1)  # upper arm, from inside the torso to the elbow
+    cv2.rectangle(arm, (94, 34), (106, 100), 1, -1)  # forearm down to the hand
+    fg = (torso | arm).astype(np.uint8)
+    contours, _ = cv2.findContours(fg, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    loop = max(contours, key=len)[:, 0, :].astype(float)
+    return torso.astype(bool), arm.astype(bool) & ~torso.astype(bool), loop
+
+
+def test_a_coarse_bone_across_the_paper_puts_its_handles_on_the_drawn_limb():
+    """A hand parented to the neck (no elbow): the bone's straight line crosses the paper between the torso and the
+    bent arm. Its handles lie on the arm, in order from shoulder to hand, follow the bone as it turns (each keeps its
+    offset), reproduce the keyframe at its own pose, and one warning names the bone."""
+    torso, arm, loop = _bent_arm_scene()
+    sk = Skeleton(joints=("hips", "neck", "hand"), parents=np.array([-1, 0, 1]))
+    pose = np.array([[50, 100, 0], [50, 40, 0], [100, 95, -1]], float)
+    h = place_handles(pose, sk, [loop], torso.shape)
+    J, B = 3, 2
+    rows = J + np.arange(len(BONE_FRACTIONS)) * B + 1  # the neck-hand bone's handles
+    pts = np.round(h.points[rows]).astype(int)
+    assert arm[pts[:, 1], pts[:, 0]].all()  # every one on the arm, none on the torso or the paper
+    assert np.all(np.diff(np.abs(h.points[rows] - h.points[1]).sum(axis=1)) > 0)  # shoulder to hand, in order
+    assert np.allclose(handle_targets(h.weights, h.offsets, h.frames, pose), h.points)  # the keyframe exactly
+    turned = pose.copy()
+    turned[2, :2] = pose[1, :2] + np.array([[0, -1], [1, 0]]) @ (pose[2, :2] - pose[1, :2])  # the hand 90° about it
+    t = handle_targets(h.weights, h.offsets, h.frames, turned)[rows]
+    assert np.allclose(np.linalg.norm(t - pose[1, :2], axis=1), np.linalg.norm(h.points[rows] - pose[1, :2], axis=1))
+    limb = [w for w in h.warnings if "follow the drawn limb" in w]
+    assert len(limb) == 1 and "'neck-hand'" in limb[0]
+    # with the elbow the skeleton runs along the arm: its bones' handles stay on their lines, no such warning
+    sk3 = Skeleton(joints=("hips", "neck", "elbow", "hand"), parents=np.array([-1, 0, 1, 2]))
+    pose3 = np.array([[50, 100, 0], [50, 40, 0], [100, 40, -1], [100, 95, -1]], float)
+    h3 = place_handles(pose3, sk3, [loop], torso.shape)
+    P3, _, _ = handle_points(pose3, sk3)
+    assert not any("follow the drawn limb" in w for w in h3.warnings)
+    assert np.allclose(h3.points[4:], P3[4:], atol=3)  # at most snapped in by the safety inset

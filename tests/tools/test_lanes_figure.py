@@ -1,0 +1,60 @@
+"""tools/lanes_figure.py: rows are key0's lane (alpha 0), key1's lane (alpha 1), the optimal path's blend and the
+truth; every tile shows the same crop, so a part drawn in two places by the lanes shows in two places."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+from ops.shotio.load import load_shot
+from ops.types import BlendPath, BlendPaths, ImageMatrix
+from resources.store import Store
+from tools.lanes_figure import LABEL_W, TILE, crop_box, lanes_figure
+
+SAMPLE = Path(__file__).resolve().parents[2] / "data_samples" / "two_poses"
+
+
+def square(h: int, w: int, x: int, colour) -> np.ndarray:
+    """(h, w, 4) straight-alpha RGBA: a 20 px opaque square of `colour` at column x, row 100, on nothing."""
+    img = np.zeros((h, w, 4), np.float32)
+    img[100:120, x:x + 20] = (*colour, 1.0)
+    return img
+
+
+def test_rows_show_each_lane_the_blend_and_the_truth(tmp_path):
+    shot_dir = shutil.copytree(SAMPLE, tmp_path / "two_poses")
+    shot = load_shot(shot_dir)
+    h, w = shot.size
+    n_t, alphas = len(shot.times), np.linspace(0, 1, 3)
+    frames = np.zeros((n_t, 3, h, w, 4), np.float32)
+    for t in range(n_t):  # key0's lane a red square at the left, key1's a blue one at the right, alpha 1/2 green
+        frames[t, 0], frames[t, 1], frames[t, 2] = (square(h, w, 40, (1, 0, 0)), square(h, w, 90, (0, 1, 0)),
+                                                    square(h, w, 140, (0, 0, 1)))
+    matrix = ImageMatrix(times=np.linspace(0, 1, n_t), alphas=alphas, frames=frames,
+                         flows=np.zeros((n_t, h, w, 4), np.float32), computed=np.ones((n_t, 3), bool))
+    path = BlendPath(alpha_index=np.array([0] + [1] * (n_t - 2) + [2]), cost=0.0, step_costs=np.zeros(n_t - 1),
+                     abrupt=np.zeros(n_t - 1, bool))
+    store = Store(tmp_path / "home" / "storage")
+    store.write("seg0/rife_matrix", "two_poses", matrix)
+    store.write("seg0/optimal_path", "two_poses", BlendPaths(matrix.times, alphas, path, path))
+
+    fig = lanes_figure(shot_dir, tmp_path / "home")
+    assert fig.shape == (4 * TILE, LABEL_W + n_t * TILE, 3)  # the sample has ground truth: four rows
+
+    def colour_in(row: int, col: int) -> np.ndarray:
+        """Mean colour of the saturated pixels of a tile."""
+        t = fig[row * TILE:(row + 1) * TILE, LABEL_W + col * TILE:LABEL_W + (col + 1) * TILE].astype(int)
+        sat = t.max(axis=2) - t.min(axis=2) > 100
+        return t[sat].mean(axis=0)
+
+    assert np.argmax(colour_in(0, 1)) == 0 and np.argmax(colour_in(1, 1)) == 2  # red lane, blue lane
+    assert np.argmax(colour_in(2, 1)) == 1 and np.argmax(colour_in(2, 0)) == 0  # the path's alpha per column
+
+
+def test_crop_box_holds_everything_drawn_and_is_square():
+    img = np.ones((100, 200, 3), np.float32)
+    img[10:20, 30:80] = 0.0
+    y0, y1, x0, x1 = crop_box([img], margin=2)
+    assert y0 <= 8 and y1 >= 22 and x0 <= 28 and x1 >= 82 and (y1 - y0) == (x1 - x0)
+    assert crop_box([np.ones((50, 60, 3), np.float32)]) == (0, 50, 0, 60)  # nothing drawn: the whole frame
