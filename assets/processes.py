@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import atexit
 import multiprocessing
+import multiprocessing.util  # noqa: F401  (registers its exit handler before ours: see shutdown)
 import os
 import signal
 import sys
@@ -32,6 +33,7 @@ from typing import Any
 WORKERS = 2  # the machine's cores: the two lanes
 # what the stages offload needs, imported once in the fork server (and never Dagster or torch)
 PRELOAD = ("ops.appearance.lane", "ops.geometry.topology", "ops.segmentation.masks")
+STARTUP_WAIT_S = 30.0  # at exit, how long the workers still being started are waited for
 ENV_SWITCH = "INBETWEEN_PROCESSES"  # "0": every op in the calling thread (a batch worker's shot, a debugger)
 
 _lock = threading.Lock()
@@ -133,12 +135,21 @@ def _discard(executor: ProcessPoolExecutor) -> None:
 
 @atexit.register
 def shutdown() -> None:
-    """Terminate the pool's processes now (an op still computing is dropped with its run)."""
+    """Terminate the pool's processes now (an op still computing is dropped with its run).
+
+    A worker must not outlive this: multiprocessing's own exit handler joins every child process, and the pool's
+    workers wait for work until told to stop, which a command leaving without finalizing the interpreter
+    (assets/run/leave.py) never does, so that join would wait forever. Hence this runs before that handler (exit
+    handlers run last registered first, and multiprocessing.util, imported above, registers its handler before
+    this module registers this one), and it first lets the thread that starts the workers finish (a quick run
+    can end while a worker is still being forked: left out of the terminate below, it hung the exit)."""
     global _pool
     with _lock:
         executor, _pool = _pool, None
+        started = _started
     if executor is None:
         return
+    started.wait(STARTUP_WAIT_S)
     for p in list(getattr(executor, "_processes", {}).values()):  # what shutdown(wait=False) leaves running
         p.terminate()
     executor.shutdown(wait=False, cancel_futures=True)

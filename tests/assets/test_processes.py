@@ -76,3 +76,19 @@ def test_processes_and_threads_compute_the_same_outputs(home, small_shot, tmp_pa
             meta[str(f.parent.relative_to(storage))] = json.loads(f.read_text())["hash"]
         versions.append(meta)
     assert versions[0] and versions[0] == versions[1]
+
+
+def test_a_command_that_leaves_while_its_workers_start_exits_at_once_and_cleanly():
+    """A quick command leaves (assets/run/leave.py: exit handlers, no finalization) while the pool's thread is still
+    forking its workers: every worker is waited for and terminated, none is left to fail on its own, and the exit
+    does not wait on a worker that waits for work (that hung a test's CLI run until its timeout)."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = ("import assets.processes as p\nfrom assets.run.leave import leave\np.pool()\nleave(0)\n")
+    for _ in range(3):
+        out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60,
+                             env={k: v for k, v in os.environ.items() if k != "INBETWEEN_PROCESSES"})
+        assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr[-2000:]
