@@ -142,7 +142,7 @@ def shutdown() -> None:
     (assets/run/leave.py) never does, so that join would wait forever. Hence this runs before that handler (exit
     handlers run last registered first, and multiprocessing.util, imported above, registers its handler before
     this module registers this one), and it first lets the thread that starts the workers finish (a quick run
-    can end while a worker is still being forked: left out of the terminate below, it hung the exit)."""
+    can end while a worker is still being forked: left out of the kill below, it hung the exit)."""
     global _pool
     with _lock:
         executor, _pool = _pool, None
@@ -151,5 +151,5 @@ def shutdown() -> None:
         return
     started.wait(STARTUP_WAIT_S)
     for p in list(getattr(executor, "_processes", {}).values()):  # what shutdown(wait=False) leaves running
-        p.terminate()
+        p.kill()  # not terminate(): under nohup or a scheduler that ignores SIGTERM the workers inherit SIG_IGN
     executor.shutdown(wait=False, cancel_futures=True)

@@ -88,7 +88,12 @@ def test_a_command_that_leaves_while_its_workers_start_exits_at_once_and_cleanly
 
     root = Path(__file__).resolve().parents[2]
     code = ("import assets.processes as p\nfrom assets.run.leave import leave\np.pool()\nleave(0)\n")
-    for _ in range(3):
+    env = {k: v for k, v in os.environ.items() if k != "INBETWEEN_PROCESSES"}
+    for ignore_sigterm in (False, True, False):  # True: as under nohup or a scheduler, the workers inherit SIG_IGN
+
+        def dispositions(ignore=ignore_sigterm):
+            signal.signal(signal.SIGTERM, signal.SIG_IGN if ignore else signal.SIG_DFL)
+
         out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60,
-                             env={k: v for k, v in os.environ.items() if k != "INBETWEEN_PROCESSES"})
+                             env=env, preexec_fn=dispositions)
         assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr[-2000:]
