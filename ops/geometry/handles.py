@@ -16,8 +16,8 @@ floating at rest.
 A coarse skeleton's bone need not run along what it moves: a hand parented to
 the torso (no elbow) crosses the paper between the body and the bent arm, and
 its handles, snapped to the nearest drawing, would pin the belly to the arm.
-A bone whose straight line lies more than STRAY_FRACTION outside the drawing
-has its handles on the drawn limb instead: at the same fractions of the
+A bone whose straight line crosses paper between drawn stretches for more than
+STRAY_FRACTION of its length has its handles on the drawn limb instead: at the same fractions of the
 shortest path inside the drawing between its two joints (kept off the
 outlines), each keeping its offset from its skeleton point as every handle does,
 so the keyframe is still reproduced exactly and the limb turns with its bone.
@@ -38,7 +38,7 @@ from ops.warning_subject import about, inside_point
 SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (its outlines are DP-simplified by 1 px)
 BONE_SAMPLES = 33  # points tried along a bone when a component needs a handle
 BONE_FRACTIONS = (1 / 6, 2 / 6, 0.5, 4 / 6, 5 / 6)  # handles along each bone besides its joints
-STRAY_FRACTION = 0.25  # a bone's straight line more than this far outside the drawing: handles on the drawn limb
+STRAY_FRACTION = 0.25  # a bone whose line crosses paper for more of its length: handles on the drawn limb
 MAX_DETOUR = 3.0  # the drawn limb may be at most this many times the bone's length (else the bone line is kept)
 
 
@@ -187,8 +187,12 @@ def _handles_on_drawn_limbs(P: np.ndarray, xy: np.ndarray, skeleton: Skeleton, i
             continue
         pts = xy[p] + u[:, None] * (xy[c] - xy[p])
         cc, rr = np.round(pts[:, 0]).astype(int), np.round(pts[:, 1]).astype(int)
+        on = np.zeros(len(u), bool)
         ok = (cc >= 0) & (cc < w) & (rr >= 0) & (rr < h)
-        stray = 1.0 - float(inside[rr[ok], cc[ok]].sum()) / len(u)
+        on[ok] = inside[rr[ok], cc[ok]]
+        drawn = np.flatnonzero(on)
+        # only paper between drawn stretches counts: a joint clicked beyond the outline is snapped, not a detour
+        stray = float((~on[drawn[0]:drawn[-1] + 1]).sum()) / len(u) if len(drawn) else 0.0
         if stray <= STRAY_FRACTION:
             continue
         path = drawn_path(safe, dist, P[p], P[c])
@@ -200,8 +204,8 @@ def _handles_on_drawn_limbs(P: np.ndarray, xy: np.ndarray, skeleton: Skeleton, i
         rows = J + np.arange(len(BONE_FRACTIONS)) * len(bones) + bi
         P[rows] = np.stack([np.interp(np.asarray(BONE_FRACTIONS) * arc[-1], arc, path[:, k]) for k in (0, 1)], 1)
         placed[rows] = True
-        warnings.append(about("bone", f"runs {100 * stray:.0f}% outside the drawing; its handles follow the drawn "
-                              "limb between its joints", name=f"{skeleton.joints[p]}-{skeleton.joints[c]}",
+        warnings.append(about("bone", f"crosses paper for {100 * stray:.0f}% of its length; its handles follow the "
+                              "drawn limb between its joints", name=f"{skeleton.joints[p]}-{skeleton.joints[c]}",
                               at=xy[p] + 0.5 * (xy[c] - xy[p]),
                               fix="add a joint where the drawn limb bends (an elbow, a knee) to steer it exactly"))
     return placed

@@ -20,16 +20,17 @@ def make(tmp_path, *extra) -> Reruns:
 
 @pytest.mark.slow  # seconds, not milliseconds: the whole suite runs it, the edit loop does not
 def test_restarted_editor_follows_a_rerun_that_still_runs(tmp_path):
-    first = make(tmp_path, "--sleep", "0.6")
+    # 2 s a stage: the rerun (four stages) must outlast the editor's restart even on a loaded machine
+    first = make(tmp_path, "--sleep", "2.0")
     first.start()
     first.request("save")
     time.sleep(0.8)  # the rerun is under way
     first.stop()  # the editor goes away; the rerun does not
     pid = json.loads((tmp_path / "work" / "rerun.json").read_text())["pid"]
-    second = make(tmp_path, "--sleep", "0.6")
+    second = make(tmp_path, "--sleep", "2.0")
     assert second.snapshot()[1]["state"] == "running" and second.snapshot()[1]["seq"] == 1
     second.start()
-    st = second.wait_idle(20)
+    st = second.wait_idle(60)
     assert st["state"] == "done" and st["seq"] == 1 and "restarted" in st["note"]
     assert set(st["stages"]) == {"key1/refined_masks", "key1/template", "seg0/rife_matrix", "inbetween_frames"}
     assert json.loads((tmp_path / "work" / "rerun.json").read_text())["pid"] == pid  # no second process started
