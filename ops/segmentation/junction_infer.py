@@ -18,14 +18,22 @@ Input: (IN_CHANNELS, H, W) float32, H and W multiples of STRIDE. Output: (OUT_CH
 """
 from __future__ import annotations
 
-import hashlib
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
 from ops.segmentation.network_input import WorkFrame, colour_channels, paper_colour, resample, to_work, work_frame
-from ops.segmentation.occlusion_infer import _fold, _relu, _up, conv2d
+from ops.segmentation.occlusion_infer import (  # file_sha256: re-exported for training
+    _fold,
+    _relu,
+    _up,
+    conv2d,
+    file_sha256,  # noqa: F401
+    plain_conv,
+    read_weights,
+)
+from ops.segmentation.occlusion_infer import check_weights as _check_weights
 from ops.segmentation.skeleton_guide import GUIDE_CHANNELS, guide_channels
 from ops.types import Skeleton
 
@@ -52,32 +60,19 @@ ENCODER = {
 BN_LAYERS = ("stem",) + tuple(n for block in ENCODER.values() for n, *_ in block) + ("d3", "d2", "d1", "head")
 
 
-def file_sha256(path: Path) -> str:
-    """Hex sha256 of a file's bytes."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
 def check_weights(path: Path, sha256: str) -> None:
     """FileNotFoundError or ValueError (one line with its fix) unless `path` holds the expected weights."""
-    p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"{p}: T-junction network weights missing; fix: restore the file from the repository "
-                                "or run tools/train_junctions.py")
-    digest = file_sha256(p)
-    if sha256 and digest != sha256:
-        raise ValueError(f"{p}: sha256 {digest} differs from the expected {sha256}; fix: restore the file from the "
-                         "repository or retrain with tools/train_junctions.py (it updates WEIGHTS_SHA256)")
+    _check_weights(path, sha256, "T-junction", "tools/train_junctions.py",
+                   "restore the file from the repository or run tools/train_junctions.py")
 
 
 @lru_cache(maxsize=2)
 def folded_weights(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> dict[str, tuple]:
     """{layer: ((O, C*k*k) float32 weights, (O,) float32 bias, k)} with each BatchNorm folded into its conv."""
     check_weights(Path(path), sha256)
-    with np.load(path, allow_pickle=False) as z:
-        raw = {k: z[k].astype(np.float64) for k in z.files}
+    raw = read_weights(path)
     layers = {name: _fold(raw[f"{name}.0.weight"], raw, f"{name}.1") for name in BN_LAYERS}
-    w = raw["out.weight"]
-    layers["out"] = (w.reshape(len(w), -1).astype(np.float32), raw["out.bias"].astype(np.float32), w.shape[-1])
+    layers["out"] = plain_conv(raw, "out")
     return layers
 
 

@@ -27,8 +27,8 @@ from ops.segmentation.junction_infer import (  # noqa: F401  (re-exported for tr
     WEIGHTS_SHA256,
     WIDTHS,
     check_weights,
-    file_sha256,
 )
+from ops.segmentation.occlusion_net import load_state, save_weights  # noqa: F401  (save_weights: for training)
 
 HEAT_PRIOR = 1e-3  # the heat logit's initial bias: about one pixel in a thousand is a junction
 
@@ -73,25 +73,8 @@ class JunctionUNet(nn.Module):
         return self.out(self.head(torch.cat([up(d1, x), stem], 1)))
 
 
-def save_weights(net: JunctionUNet, path: Path) -> str:
-    """Write the network's state as float32 arrays in an .npz (no pickle); returns the file's sha256."""
-    state = {k: v.detach().cpu().numpy().astype(np.float32) for k, v in net.state_dict().items()
-             if v.dtype.is_floating_point}
-    np.savez_compressed(path, **state)
-    return file_sha256(path)
-
-
 @lru_cache(maxsize=2)
 def load_network(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> JunctionUNet:
     """The trained network in eval mode, after checking the weights file's sha256."""
-    p = Path(path)
-    check_weights(p, sha256)
-    net = JunctionUNet()
-    with np.load(p, allow_pickle=False) as z:
-        state = {k: torch.from_numpy(z[k]) for k in z.files}
-    for k, v in net.state_dict().items():  # BatchNorm's integer step counters are not stored
-        if k not in state and not v.dtype.is_floating_point:
-            state[k] = v
-    net.load_state_dict(state)
-    net.eval()
-    return net
+    check_weights(Path(path), sha256)
+    return load_state(JunctionUNet(), Path(path))

@@ -45,32 +45,43 @@ def file_sha256(path: Path) -> str:
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
-def check_weights(path: Path, sha256: str) -> None:
-    """FileNotFoundError or ValueError (one line with its fix) unless `path` holds the expected weights."""
+def check_weights(path: Path, sha256: str, network: str = "occlusion", trainer: str = "tools/train_occlusion.py",
+                  missing_fix: str = "run tools/train_occlusion.py or use settings occlusion='skeleton'") -> None:
+    """FileNotFoundError or ValueError (one line with its fix) unless `path` holds the expected weights of the
+    named network (retrained by `trainer`)."""
     p = Path(path)
     if not p.exists():
-        raise FileNotFoundError(f"{p}: occlusion network weights missing; fix: run tools/train_occlusion.py or "
-                                "use settings occlusion='skeleton'")
+        raise FileNotFoundError(f"{p}: {network} network weights missing; fix: {missing_fix}")
     digest = file_sha256(p)
     if sha256 and digest != sha256:
         raise ValueError(f"{p}: sha256 {digest} differs from the expected {sha256}; fix: restore the file from the "
-                         "repository or retrain with tools/train_occlusion.py (it updates WEIGHTS_SHA256)")
+                         f"repository or retrain with {trainer} (it updates WEIGHTS_SHA256)")
+
+
+def read_weights(path: str | Path) -> dict[str, np.ndarray]:
+    """Every array of a weights .npz (no pickle), as float64 (the folding's precision)."""
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k].astype(np.float64) for k in z.files}
+
+
+def plain_conv(raw: dict, name: str) -> tuple[np.ndarray, np.ndarray, int]:
+    """A conv with a bias and no BatchNorm, as a folded layer: (O, C*k*k) float32 weights, (O,) bias, k."""
+    w = raw[f"{name}.weight"]
+    return w.reshape(len(w), -1).astype(np.float32), raw[f"{name}.bias"].astype(np.float32), w.shape[-1]
 
 
 @lru_cache(maxsize=2)
 def folded_weights(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> dict[str, tuple]:
     """{layer: ((O, C*k*k) float32 weights, (O,) float32 bias, k)} with each BatchNorm folded into its conv."""
     check_weights(Path(path), sha256)
-    with np.load(path) as z:
-        raw = {k: z[k].astype(np.float64) for k in z.files}
+    raw = read_weights(path)
     layers: dict[str, tuple] = {}
     for name in [n for block in _ENCODER.values() for n, *_ in block]:
         layers[name] = _fold(raw[f"{name}.0.weight"], raw, f"{name}.1")
     for name in ("d3", "d2", "d1"):  # _conv directly: conv "d3.0", BatchNorm "d3.1"
         layers[name] = _fold(raw[f"{name}.0.weight"], raw, f"{name}.1")
-    for name in ("head.0", "head.2"):  # plain convs with a bias
-        w = raw[f"{name}.weight"]
-        layers[name] = (w.reshape(len(w), -1).astype(np.float32), raw[f"{name}.bias"].astype(np.float32), w.shape[-1])
+    for name in ("head.0", "head.2"):
+        layers[name] = plain_conv(raw, name)
     return layers
 
 

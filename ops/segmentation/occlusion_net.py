@@ -68,26 +68,29 @@ class OcclusionUNet(nn.Module):
         return self.head(torch.cat([up(d1, x), x], 1))
 
 
-def save_weights(net: OcclusionUNet, path: Path) -> str:
-    """Write the network's state as float32 arrays in an .npz (no pickle); returns the file's sha256."""
+def save_weights(net: nn.Module, path: Path) -> str:
+    """Write a network's state as float32 arrays in an .npz (no pickle); returns the file's sha256. Both networks
+    (this one and ops.segmentation.junction_net's) are stored so."""
     state = {k: v.detach().cpu().numpy().astype(np.float32) for k, v in net.state_dict().items()
              if v.dtype.is_floating_point}
     np.savez_compressed(path, **state)
     return file_sha256(path)
 
 
-@lru_cache(maxsize=2)
-def load_network(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> OcclusionUNet:
-    """The trained network in eval mode, after checking the weights file's sha256 (shipped in the repository)."""
-    p = Path(path)
-    check_weights(p, sha256)
-    net = OcclusionUNet()
-    with np.load(p) as z:
+def load_state(net: nn.Module, path: Path) -> nn.Module:
+    """`net` with the state a save_weights file holds (checked by the caller), in eval mode."""
+    with np.load(path, allow_pickle=False) as z:
         state = {k: torch.from_numpy(z[k]) for k in z.files}
-    own = net.state_dict()
-    for k, v in own.items():  # BatchNorm's integer step counters are not stored
+    for k, v in net.state_dict().items():  # BatchNorm's integer step counters are not stored
         if k not in state and not v.dtype.is_floating_point:
             state[k] = v
     net.load_state_dict(state)
     net.eval()
     return net
+
+
+@lru_cache(maxsize=2)
+def load_network(path: str = str(WEIGHTS_PATH), sha256: str = WEIGHTS_SHA256) -> OcclusionUNet:
+    """The trained network in eval mode, after checking the weights file's sha256 (shipped in the repository)."""
+    check_weights(Path(path), sha256)
+    return load_state(OcclusionUNet(), Path(path))
