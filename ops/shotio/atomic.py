@@ -10,7 +10,14 @@ from pathlib import Path
 
 
 def _umask() -> int:
-    """The process's umask (read by setting it and putting it back)."""
+    """The process's umask. Read from /proc where Linux shows it: setting it and putting it back (the portable
+    way) would briefly change it for the run's other threads, which write files too."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except OSError:
+        pass
     mask = os.umask(0o022)
     os.umask(mask)
     return mask
