@@ -103,8 +103,11 @@ def signed_distance(part: Part, p0: np.ndarray, p1: np.ndarray, q: np.ndarray) -
 
 def polygon_crossings(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """(k, 2) intersection points of two closed polygons p (n, 2) and q (m, 2), px."""
-    a, b = p, np.roll(p, -1, 0)
-    c, d = q, np.roll(q, -1, 0)
+    return segment_crossings(p, np.roll(p, -1, 0), q, np.roll(q, -1, 0))
+
+
+def segment_crossings(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """(k, 2) intersection points of segments a-b (n, 2 each) with segments c-d (m, 2 each), px."""
     r = (b - a)[:, None]  # (n, 1, 2)
     s = (d - c)[None]  # (1, m, 2)
     den = r[..., 0] * s[..., 1] - r[..., 1] * s[..., 0]

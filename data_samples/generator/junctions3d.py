@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 from skimage.measure import find_contours
 
-from .geometry import stem_directions
+from .geometry import segment_crossings, stem_directions
 
 OUTLINE_SIGMA = 1.0  # px: smoothing of a bone's shape before its outline is traced
 MERGE_PX = 2.0  # crossings of one pair this close are one junction (the 2D generator's rule)
@@ -38,16 +38,7 @@ def _crossings(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     a, b = a[near], b[near]
     if not len(a):
         return np.zeros((0, 2))
-    r = (b - a)[:, None]
-    s = (d - c)[None]
-    den = r[..., 0] * s[..., 1] - r[..., 1] * s[..., 0]
-    ca = c[None] - a[:, None]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (ca[..., 0] * s[..., 1] - ca[..., 1] * s[..., 0]) / den
-        u = (ca[..., 0] * r[..., 1] - ca[..., 1] * r[..., 0]) / den
-    hit = (np.abs(den) > 1e-12) & (t >= 0) & (t < 1) & (u >= 0) & (u < 1)
-    i, _ = np.nonzero(hit)
-    return a[i] + t[hit][:, None] * (b - a)[i]
+    return segment_crossings(a, b, c, d)
 
 
 def pair_junctions(a: int, b: int, cover: dict, near_bone: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
