@@ -2,6 +2,7 @@
 output joins the segments (a one-drawing shot's is its deformed drawing)."""
 from __future__ import annotations
 
+import threading
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -40,11 +41,14 @@ class _CountedRife:
 
     def __init__(self, rife, partition: str, stage: str, bound: int):
         self._rife, self._partition, self._stage, self.bound, self.done = rife, partition, stage, bound, 0
+        self._lock = threading.Lock()
 
     def midpoint_tensors(self, a0, a1, *args, **kwargs):
         out = self._rife.midpoint_tensors(a0, a1, *args, **kwargs)
-        self.done += len(a0)
-        progress.emit(self._partition, self._stage, "progress", done=self.done, bound=self.bound)
+        with self._lock:  # the matrix may call from several threads (build_image_matrix)
+            self.done += len(a0)
+            done = self.done
+        progress.emit(self._partition, self._stage, "progress", done=done, bound=self.bound)
         return out
 
     def __getattr__(self, name):

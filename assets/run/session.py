@@ -7,6 +7,7 @@ import functools
 import os
 import random
 import time
+from contextlib import contextmanager
 from pathlib import Path
 
 from ops.settings import Settings
@@ -109,9 +110,10 @@ class Session:
 
         run_config = {"loggers": {"file": {"config": {"path": str(log_path)}},
                                   "console": {"config": {"log_level": "DEBUG" if verbose else "CRITICAL"}}}}
-        result = self.job.execute_in_process(
-            instance=self.instance, partition_key=partition, asset_selection=[asset_key(n) for n in names],
-            run_config=run_config, raise_on_error=False, tags={"inbetween/shot": partition})
+        with partitions_known(self.instance):
+            result = self.job.execute_in_process(
+                instance=self.instance, partition_key=partition, asset_selection=[asset_key(n) for n in names],
+                run_config=run_config, raise_on_error=False, tags={"inbetween/shot": partition})
         if not result.success:
             raise_failure(result.all_events, shot, log_path)
         return result
@@ -132,6 +134,30 @@ class Session:
         if not result.success:
             raise_failure(result.all_events, shot, log_path)
         return result
+
+
+@contextmanager
+def partitions_known(instance):
+    """While open, the instance answers "does this dynamic partition exist?" from memory once it has said yes.
+
+    Dagster asks it for every input of every step (a SQLite query on a new connection each time: a quarter of
+    a step's recording); within one run the shot's partition, added before it started, stays."""
+    ask = instance.has_dynamic_partition
+    known: set[tuple[str, str]] = set()
+
+    def has_dynamic_partition(partitions_def_name: str, partition_key: str) -> bool:
+        if (partitions_def_name, partition_key) in known:
+            return True
+        found = ask(partitions_def_name, partition_key)
+        if found:
+            known.add((partitions_def_name, partition_key))
+        return found
+
+    instance.has_dynamic_partition = has_dynamic_partition
+    try:
+        yield instance
+    finally:
+        del instance.has_dynamic_partition  # the class's method again
 
 
 def open_instance():

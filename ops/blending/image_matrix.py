@@ -9,6 +9,7 @@ Rows are processed in chunks so a long shot only needs one chunk in memory.
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -115,29 +116,48 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
         computed = np.array(computed, bool)
         if computed.shape != (t_count, n_a) or not computed[:, n_a // 2].all():
             raise ValueError(f"computed must be ({t_count}, {n_a}) bool with every alpha-1/2 cell set")
-    for phase in (0, 1) if wanted and not computed.any() else (1,):
-        if phase == 1 and wanted:  # the level-1 flows are known now: decide the rest
-            need = bisection_closure(wanted(flows_out), depth)
-        for t0 in range(0, t_count, batch):
-            rows = slice(t0, min(t0 + batch, t_count))
-            known = np.nonzero(computed[rows].any(0))[0] if phase else []
-            cells = rife.empty((rows.stop - t0, n_a, 4, h, w))
-            cells[:, 0], cells[:, -1] = rife.rgba_tensor(frames0[rows]), rife.rgba_tensor(frames1[rows])
-            for a in known:
-                cells[:, a] = rife.rgba_tensor(np.ascontiguousarray(out[rows, a]))
-            todo = need[rows] & ~computed[rows]
-            todo[:, [0, -1]] = False
-            flows = rife.zeros((rows.stop - t0, 4, h, w))
-            _fill_chunk(cells, todo, depth, rife, batch, flows)
-            done = todo | computed[rows]
-            done[:, [0, -1]] = True
-            for a in range(n_a):  # only what is new goes back to the host
-                fresh = np.nonzero(done[:, a] & ~computed[rows, a])[0]
-                if len(fresh):
-                    out[t0 + fresh, a] = rife.to_host(cells[rife.index(fresh), a])
-            if todo[:, n_a // 2].any():
-                flows_out[rows] = rife.to_host(flows)
-            computed[rows] = done
+
+    def fill(t0: int, phase: int) -> None:
+        """Rows t0 .. t0 + batch: their cells to compute in this phase, level by level (they touch no other row)."""
+        rows = slice(t0, min(t0 + batch, t_count))
+        known = np.nonzero(computed[rows].any(0))[0] if phase else []
+        cells = rife.empty((rows.stop - t0, n_a, 4, h, w))
+        cells[:, 0], cells[:, -1] = rife.rgba_tensor(frames0[rows]), rife.rgba_tensor(frames1[rows])
+        for a in known:
+            cells[:, a] = rife.rgba_tensor(np.ascontiguousarray(out[rows, a]))
+        todo = need[rows] & ~computed[rows]
+        todo[:, [0, -1]] = False
+        flows = rife.zeros((rows.stop - t0, 4, h, w))
+        _fill_chunk(cells, todo, depth, rife, batch, flows)
+        done = todo | computed[rows]
+        done[:, [0, -1]] = True
+        for a in range(n_a):  # only what is new goes back to the host
+            fresh = np.nonzero(done[:, a] & ~computed[rows, a])[0]
+            if len(fresh):
+                out[t0 + fresh, a] = rife.to_host(cells[rife.index(fresh), a])
+        if todo[:, n_a // 2].any():
+            flows_out[rows] = rife.to_host(flows)
+        computed[rows] = done
+
+    # chunks of rows are independent: a runtime that is faster with several calls at once (ONNX Runtime on the
+    # CPU: OnnxRife.concurrency) fills them on that many threads
+    at_once = min(rife.concurrency() if hasattr(rife, "concurrency") else 1, -(-t_count // batch))
+    pool = ThreadPoolExecutor(at_once, thread_name_prefix="inbetween-matrix") if at_once > 1 else None
+    try:
+        for phase in (0, 1) if wanted and not computed.any() else (1,):
+            if phase == 1 and wanted:  # the level-1 flows are known now: decide the rest
+                need = bisection_closure(wanted(flows_out), depth)
+            chunks = range(0, t_count, batch)
+            if pool is None:
+                for t0 in chunks:
+                    fill(t0, phase)
+            else:
+                with rife.calls_at_once(at_once):
+                    for _ in pool.map(fill, chunks, [phase] * len(chunks)):  # re-raises a chunk's error
+                        pass
+    finally:
+        if pool is not None:
+            pool.shutdown()
     out[~computed] = 0.0  # not computed: transparent black, and marked so
     return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out,
                        computed=computed)

@@ -13,7 +13,10 @@ from __future__ import annotations
 import os
 import sys
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -100,25 +103,46 @@ class OnnxRife:
 
     def __init__(self, onnx_path: Path, weights_path: Path):
         self.onnx_path, self.weights_path = Path(onnx_path), Path(weights_path)
-        self._session, self._session_threads = None, -1
+        self._sessions: dict[tuple[int, bool], Any] = {}  # (intra-op threads, spinning) -> session
+        self._callers = 1  # calls made at once (calls_at_once): each session gets its share of the threads
         self._lock = threading.Lock()
 
-    def _run(self, rgb0: np.ndarray, rgb1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The network on padded (N, 3, H, W) RGB: flow (N, 4, H, W) pixels, mask logits (N, 1, H, W)."""
-        with self._lock:  # made again when limit_threads or set_spinning changed its threads
-            if self._session is None or self._session_threads != (_threads, _spinning):
+    def concurrency(self) -> int:
+        """How many calls are best made at once: one per thread the network may use. Two calls on one thread each
+        beat one call on two (0.17 against 0.19-0.21 s a 384² pair on this machine's two cores): a call's small
+        convolutions keep two threads only partly busy, and its NumPy warp and blend hold one anyway."""
+        return max(1, _threads or os.cpu_count() or 1)
+
+    @contextmanager
+    def calls_at_once(self, n: int) -> Iterator[None]:
+        """While open, `n` threads call the network at once: each call runs on its share of the threads."""
+        self._callers = max(1, int(n))
+        try:
+            yield
+        finally:
+            self._callers = 1
+
+    def _session(self) -> Any:
+        """The session for the current thread budget (made once per budget, spinning setting included)."""
+        threads = max(1, (_threads or os.cpu_count() or 1) // self._callers)
+        key = (threads, _spinning and self._callers == 1)
+        with self._lock:
+            if key not in self._sessions:
                 import onnxruntime as ort
 
                 options = ort.SessionOptions()
-                options.intra_op_num_threads, options.inter_op_num_threads = _threads or 0, 1
+                options.intra_op_num_threads, options.inter_op_num_threads = threads, 1
                 options.log_severity_level = 3  # errors only: its warnings about unused initializers are noise
                 # a pipeline's main thread records Dagster's events meanwhile: threads that spin while they wait
                 # fight it for the two cores (arm_cross's matrix 8.7 s spinning, 7.2 s not; docs/performance.md)
-                options.add_session_config_entry("session.intra_op.allow_spinning", "1" if _spinning else "0")
-                self._session = ort.InferenceSession(str(self.onnx_path), options, providers=["CPUExecutionProvider"])
-                self._session_threads = (_threads, _spinning)
-            session = self._session
-        flow, logits = session.run(None, {"img0": rgb0, "img1": rgb1})
+                options.add_session_config_entry("session.intra_op.allow_spinning", "1" if key[1] else "0")
+                self._sessions[key] = ort.InferenceSession(str(self.onnx_path), options,
+                                                           providers=["CPUExecutionProvider"])
+            return self._sessions[key]
+
+    def _run(self, rgb0: np.ndarray, rgb1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The network on padded (N, 3, H, W) RGB: flow (N, 4, H, W) pixels, mask logits (N, 1, H, W)."""
+        flow, logits = self._session().run(None, {"img0": rgb0, "img1": rgb1})  # ONNX Runtime's run is thread-safe
         return flow, logits
 
     # ---- the cells' array type, as image_matrix builds the matrix on the network's device

@@ -117,3 +117,38 @@ def test_an_output_written_before_a_field_existed_reads_with_its_default(tmp_pat
     (path / "meta.json").write_text(json.dumps(meta))
     with pytest.raises(KeyError):
         read_value(path)
+
+
+def test_an_image_matrix_stores_and_hashes_only_its_filled_cells(tmp_path):
+    """The cells a path did not need are zero: stored as their places only, read back exactly (a -0.0 or a NaN
+    is not zero), and the hash tells every cell's value and place apart."""
+    from ops.types import ImageMatrix
+    from resources.store import SLAB_MIN_BYTES, filled_slabs
+
+    rng = np.random.default_rng(1)
+    t, a, h, w = 3, 5, 80, 64
+    computed = np.zeros((t, a), bool)
+    computed[:, [0, 2, 4]] = True
+    computed[1, 1] = True
+    frames = np.zeros((t, a, h, w, 4), np.float32)
+    frames[computed] = rng.random((int(computed.sum()), h, w, 4), dtype=np.float32)
+    frames[0, 1, 5, 5, 0] = -0.0  # a negative zero alone: a filled cell
+    frames[2, 3, 7, 7, 1] = np.nan
+    assert frames.nbytes >= SLAB_MIN_BYTES
+    m = ImageMatrix(np.linspace(0, 1, t), np.linspace(0, 1, a), frames, rng.random((t, h, w, 4), dtype=np.float32),
+                    computed)
+    expected = computed.copy()
+    expected[0, 1] = expected[2, 3] = True
+    np.testing.assert_array_equal(filled_slabs(frames), expected)
+    digest = write_value(tmp_path / "m", m)
+    back = read_value(tmp_path / "m")
+    assert np.array_equal(back.frames.view(np.uint32), frames.view(np.uint32))  # bit for bit
+    assert content_hash(back) == digest
+    size = (tmp_path / "m" / "arrays.npz").stat().st_size
+    assert size < frames.nbytes * 12 / 15 + m.flows.nbytes + 10_000  # 12 of 15 cells written
+    moved = frames.copy()
+    moved[[0, 1]] = frames[[1, 0]]  # the same cells in other places
+    assert content_hash(ImageMatrix(m.times, m.alphas, moved, m.flows, computed)) != digest
+    dense = frames.copy()
+    dense[dense == 0] = 1e-30  # no zero cell left: stored and hashed whole
+    assert filled_slabs(dense) is None

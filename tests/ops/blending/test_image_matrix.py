@@ -198,3 +198,51 @@ def test_completing_another_path_blends_only_its_new_cells():
     np.testing.assert_array_equal(done.flows, m.flows)
     again = AveragingFake()
     assert complete_cells(done, f0, f1, again, diagonal) is done and not again.calls
+
+
+def test_rows_filled_at_once_equal_rows_filled_in_turn(tmp_path):
+    """ONNX Runtime fills the rows on two threads, one network thread each (OnnxRife.concurrency): the same
+    matrix as one row after the other on both threads, to float noise, and the same cells computed."""
+    onnx = load_rife(runtime="onnxruntime", cache_dir=tmp_path)
+    if not isinstance(onnx, OnnxRife):
+        pytest.skip("onnxruntime is not installed")
+    f0 = disc_frames([30, 36, 40, 44, 50])
+    f1 = disc_frames([56, 52, 48, 44, 40])
+    times = np.linspace(0, 1, 5)
+
+    def wanted(flows):
+        pick = np.zeros((5, 9), bool)
+        pick[:, [0, 2, 4, 7, 8]] = True
+        return pick
+
+    together = build_image_matrix(f0, f1, times, onnx, depth=3, wanted=wanted)
+
+    class InTurn(OnnxRife):
+        def concurrency(self):
+            return 1
+
+    alone = InTurn(onnx.onnx_path, onnx.weights_path)
+    in_turn = build_image_matrix(f0, f1, times, alone, depth=3, wanted=wanted)
+    np.testing.assert_array_equal(together.computed, in_turn.computed)
+    np.testing.assert_allclose(together.frames, in_turn.frames, atol=1e-5)
+    np.testing.assert_allclose(together.flows, in_turn.flows, atol=1e-4)
+    if onnx.concurrency() > 1:
+        assert set(onnx._sessions) == {(1, False)}  # each of the calls made at once ran on one thread
+        assert set(alone._sessions) == {(onnx.concurrency(), False)}
+    assert onnx._callers == 1  # back to whole calls once the matrix is built
+
+
+def test_a_failing_row_fails_the_matrix():
+    """An error in one of the rows filled at once reaches the caller (not lost on a worker thread)."""
+    class Failing(AveragingFake):
+        def concurrency(self):
+            return 2
+
+        def midpoint_tensors(self, img0, img1):
+            if len(self.calls) >= 3:
+                raise RuntimeError("network failed")
+            return super().midpoint_tensors(img0, img1)
+
+    f0, f1 = random_frames(6), random_frames(6, seed=1)
+    with pytest.raises(RuntimeError, match="network failed"):
+        build_image_matrix(f0, f1, np.linspace(0, 1, 6), Failing(), depth=2)
