@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -35,8 +36,9 @@ EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (ass
 
 @retry_database_locked
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
-            executor: str = "in_process") -> dict[str, dict]:
-    """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}."""
+            executor: str = "in_process", outputs: dict[str, tuple[str, Any]] | None = None) -> dict[str, dict]:
+    """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}.
+    outputs: filled with {stage: (data version, value)} of the stages this process computed (no read back)."""
     if executor == "celery":
         session = Session.get(settings)
         session.ensure_partition(p.partition)
@@ -57,7 +59,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
     # resource waits for the Definitions'. The sources' versions are the ones the plan observed.
     resources = Resources()
     with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
-                                                  resources):
+                                                  resources) as ahead:
         try:
             session = Session.get(settings)
         except BaseException as e:
@@ -67,7 +69,17 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
         session.ensure_partition(p.partition)
         session.observe(p.partition, p.sources)
         session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)
+        if outputs is not None:
+            outputs.update({n: (ahead.outcomes[n].version, v) for n, v in ahead.memory.items()})
     return executed
+
+
+def read_output(name: str, partition: str, outputs: dict[str, tuple[str, Any]]) -> Any:
+    """A stage's stored output: the value this process computed when it is the one stored (its data version
+    is), else read from the store (a cached stage, or one another process wrote since)."""
+    st = store()
+    version, value = outputs.get(name, (None, None))
+    return value if version is not None and version == st.hash(name, partition) else st.read(name, partition)
 
 
 def stage_timings(events) -> dict[str, dict]:
@@ -98,13 +110,15 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)
     with shot_lock(partition, on_wait):
-        shot, executed = _settle(shot, settings, verbose, executor)
+        outputs: dict[str, tuple[str, Any]] = {}
+        shot, executed = _settle(shot, settings, verbose, executor, outputs)
         st = store()
-        frames = st.read("inbetween_frames", partition)
+        frames = read_output("inbetween_frames", partition, outputs)
         names = plan_stages(shot)
         repairs = stage_warnings(partition, names)
-        segments = [_segment_report(shot, s, st.read(f"seg{s}/optimal_path", partition), settings.blend)
+        segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend)
                     for s in range(shot.n_keys - 1)]
+        del outputs  # the run's other outputs (the image matrix) are not kept while the frames are written
     stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
                   "warnings": repairs.get(n, 0)} for n in names}
     report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
@@ -141,8 +155,8 @@ def _segment_report(shot: Shot, s: int, paths, blend: str) -> dict:
 SETTLE_ROUNDS = 3
 
 
-def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_process"
-            ) -> tuple[Shot, dict[str, dict]]:
+def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_process",
+            outputs: dict[str, tuple[str, Any]] | None = None) -> tuple[Shot, dict[str, dict]]:
     """Run the stages that are not fresh until the shot on disk is the one they ran on.
 
     A shot saved during the run (from the editor, a text editor) can make a stage read the new shot
@@ -157,7 +171,7 @@ def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_p
         try:
             if p.to_run or not p.recorded:
                 # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
-                executed.update(execute(p, settings, p.to_run or list(p.graph.stages), verbose, executor))
+                executed.update(execute(p, settings, p.to_run or list(p.graph.stages), verbose, executor, outputs))
                 _remember_ui(p, p.graph.stages)
             failure = None
         except (StageFailed, ShotError) as e:
