@@ -45,10 +45,9 @@ class _CountedRife:
 
     def midpoint_tensors(self, a0, a1, *args, **kwargs):
         out = self._rife.midpoint_tensors(a0, a1, *args, **kwargs)
-        with self._lock:  # the matrix may call from several threads (build_image_matrix)
+        with self._lock:  # the matrix may call from several threads (build_image_matrix): counts in order
             self.done += len(a0)
-            done = self.done
-        progress.emit(self._partition, self._stage, "progress", done=done, bound=self.bound)
+            progress.emit(self._partition, self._stage, "progress", done=self.done, bound=self.bound)
         return out
 
     def __getattr__(self, name):

@@ -91,14 +91,17 @@ def shot_problems(root: Path, only: list[str] | None) -> list[tuple]:
         if only and d.name not in only:
             continue
         shot = load_shot(d)
-        for k in (0, 1):
+        if shot.n_keys < 2:  # a one-drawing shot: no other key to deform towards
+            continue
+        for k in (0, 1):  # the first segment's two keys (a longer shot's other segments are alike)
+            other = 1 - k
             fg = shot.foreground_masks[k]
             occ = [mask(p) for p in shot.occlusion_masks[k]] or None
             masks = build_masks(to_rgba(read_image(shot.keyframes[k])), shot.key_pose(k), shot.skeleton,
                                 mask(fg) if fg else None, occ, source=shot.keyframes[k], occlusion="hybrid")
-            refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton, shot.key_pose(1 - k))
-            out.append((f"{d.name} key{k}", refined, shot.key_pose(k), shot.key_pose(1 - k), shot.skeleton,
-                        shot.poses, k))
+            refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton, shot.key_pose(other))
+            out.append((f"{d.name} key{k}", refined, shot.key_pose(k), shot.key_pose(other), shot.skeleton,
+                        shot.segment_poses(0), k))
         print(f"  {d.name}: masks ready", file=sys.stderr, flush=True)
     return out
 

@@ -33,7 +33,8 @@ def test_progress_counts_every_blend_up_to_the_bound(deepest):
     blends = int(matrix.computed[:, 1:-1].sum())  # what the stage's metadata calls its inferences
     counts = [e["done"] for e in events]
     assert all(e["stage"] == "seg0/rife_matrix" and e["event"] == "progress" and e["bound"] == T * depth for e in events)
-    assert counts == list(np.cumsum(fake.calls)) and counts[-1] == blends <= T * depth
+    # rows are filled on several threads: each event adds one call's pairs, in whichever order they finished
+    assert sorted(np.diff([0, *counts]).tolist()) == sorted(fake.calls) and counts[-1] == blends <= T * depth
     if deepest:
         assert blends == T * depth  # the bound is reached: it is the least upper bound
     assert rife.device == fake.device  # everything else is the network's own
