@@ -74,8 +74,9 @@ def content_hash(value: Any) -> str:
         if isinstance(v, np.ndarray) and (filled := filled_slabs(v)) is not None:
             h.update(str((v.dtype.str, v.shape, "slabs")).encode())
             h.update(np.packbits(filled).tobytes())
-            for slab in np.asarray(v).reshape((-1, *v.shape[-3:]))[filled.ravel()]:
-                h.update(np.ascontiguousarray(slab).tobytes())
+            slabs = np.asarray(v).reshape((-1, *v.shape[-3:]))
+            for i in np.flatnonzero(filled):  # one slab at a time, not copied (a C-contiguous slab is a buffer)
+                h.update(np.ascontiguousarray(slabs[i]))
         elif isinstance(v, np.ndarray):
             h.update(str((v.dtype.str, v.shape)).encode())
             h.update(np.ascontiguousarray(v).tobytes())

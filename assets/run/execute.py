@@ -36,9 +36,11 @@ EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (ass
 
 @retry_database_locked
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
-            executor: str = "in_process", outputs: dict[str, tuple[str, Any]] | None = None) -> dict[str, dict]:
+            executor: str = "in_process", outputs: dict[str, tuple[str, Any] | None] | None = None
+            ) -> dict[str, dict]:
     """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}.
-    outputs: filled with {stage: (data version, value)} of the stages this process computed (no read back)."""
+    outputs: {stage: None} of the outputs the caller will read; those this process computes are filled in as
+    (data version, value), so the caller need not read them back."""
     if executor == "celery":
         session = Session.get(settings)
         session.ensure_partition(p.partition)
@@ -70,15 +72,16 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
         session.observe(p.partition, p.sources)
         session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)
         if outputs is not None:
-            outputs.update({n: (ahead.outcomes[n].version, v) for n, v in ahead.memory.items()})
+            for n in outputs.keys() & ahead.memory.keys():
+                outputs[n] = (ahead.outcomes[n].version, ahead.memory[n])
     return executed
 
 
-def read_output(name: str, partition: str, outputs: dict[str, tuple[str, Any]]) -> Any:
+def read_output(name: str, partition: str, outputs: dict[str, tuple[str, Any] | None]) -> Any:
     """A stage's stored output: the value this process computed when it is the one stored (its data version
     is), else read from the store (a cached stage, or one another process wrote since)."""
     st = store()
-    version, value = outputs.get(name, (None, None))
+    version, value = outputs.get(name) or (None, None)
     return value if version is not None and version == st.hash(name, partition) else st.read(name, partition)
 
 
@@ -110,7 +113,9 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)
     with shot_lock(partition, on_wait):
-        outputs: dict[str, tuple[str, Any]] = {}
+        # what the report reads: taken from the run where it computed them (a shot saved meanwhile with other
+        # keys reads the rest from the store)
+        outputs = dict.fromkeys(["inbetween_frames", *(f"seg{s}/optimal_path" for s in range(shot.n_keys - 1))])
         shot, executed = _settle(shot, settings, verbose, executor, outputs)
         st = store()
         frames = read_output("inbetween_frames", partition, outputs)
@@ -118,7 +123,6 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
         repairs = stage_warnings(partition, names)
         segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend)
                     for s in range(shot.n_keys - 1)]
-        del outputs  # the run's other outputs (the image matrix) are not kept while the frames are written
     stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
                   "warnings": repairs.get(n, 0)} for n in names}
     report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
@@ -156,7 +160,7 @@ SETTLE_ROUNDS = 3
 
 
 def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_process",
-            outputs: dict[str, tuple[str, Any]] | None = None) -> tuple[Shot, dict[str, dict]]:
+            outputs: dict[str, tuple[str, Any] | None] | None = None) -> tuple[Shot, dict[str, dict]]:
     """Run the stages that are not fresh until the shot on disk is the one they ran on.
 
     A shot saved during the run (from the editor, a text editor) can make a stage read the new shot
