@@ -30,12 +30,18 @@ def _read(path: Path) -> dict[str, str]:
         return {}
 
 
+def partition_of(registry: Path, shot_dir: str | Path) -> str | None:
+    """Partition key the registry gives `shot_dir`, or None when it has none (nothing written)."""
+    shot_dir = str(Path(shot_dir).resolve())
+    return next((key for key, path in _read(registry).items() if path == shot_dir), None)
+
+
 def register_shot(registry: Path, shot_dir: str | Path) -> str:
     """Partition key of `shot_dir`, adding it to the registry if new."""
+    known = partition_of(registry, shot_dir)  # known already: no lock, no write
+    if known is not None:
+        return known
     shot_dir = str(Path(shot_dir).resolve())
-    for key, path in _read(registry).items():  # known already: no lock, no write
-        if path == shot_dir:
-            return key
     with _locked(registry):
         reg = _read(registry)
         for key, path in reg.items():

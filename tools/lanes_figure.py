@@ -21,20 +21,18 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from ops.shotio.image_io import read_image, write_image  # noqa: E402
+from ops.shotio.image_io import composite_over_white, read_image, to_rgba, write_image  # noqa: E402
 from ops.shotio.load import ground_truth_files, load_shot  # noqa: E402
+from resources.registry import partition_of  # noqa: E402
 from resources.store import Store  # noqa: E402
 
 TILE = 220  # px per tile side
 LABEL_W = 90  # px of the row labels
 
 
-def on_white(rgba: np.ndarray) -> np.ndarray:
-    """(H, W, 3) float32 0-1: straight-alpha RGBA (H, W, 4) composited over white (an RGB image as it is)."""
-    if rgba.shape[2] < 4:
-        return rgba[..., :3]
-    a = rgba[..., 3:4]
-    return rgba[..., :3] * a + (1.0 - a)
+def on_white(image: np.ndarray) -> np.ndarray:
+    """(H, W, 3) float32 0-1: any image (straight-alpha RGBA, RGB, grey) composited over white."""
+    return composite_over_white(to_rgba(image))
 
 
 def crop_box(images: list[np.ndarray], margin: int = 6) -> tuple[int, int, int, int]:
@@ -70,7 +68,8 @@ def lanes_figure(shot_dir: Path, home: Path, segment: int = 0, every: int = 1) -
     """(H, W, 3) uint8 figure of a stored run of shot_dir (its stages in home/storage): rows as the module says."""
     shot = load_shot(shot_dir)
     store = Store(home / "storage")
-    partition = shot_dir.resolve().name
+    # the run's key for this folder (a second shot of the same name is `name-<hash>`); a bare store: its name
+    partition = partition_of(home / "shots.json", shot_dir) or shot_dir.resolve().name
     matrix = store.read(f"seg{segment}/rife_matrix", partition)
     paths = store.read(f"seg{segment}/optimal_path", partition)
     n_t = len(matrix.times)

@@ -9,6 +9,7 @@ import numpy as np
 
 from ops.shotio.load import load_shot
 from ops.types import BlendPath, BlendPaths, ImageMatrix
+from resources.registry import register_shot
 from resources.store import Store
 from tools.lanes_figure import LABEL_W, TILE, crop_box, lanes_figure
 
@@ -35,9 +36,14 @@ def test_rows_show_each_lane_the_blend_and_the_truth(tmp_path):
                          flows=np.zeros((n_t, h, w, 4), np.float32), computed=np.ones((n_t, 3), bool))
     path = BlendPath(alpha_index=np.array([0] + [1] * (n_t - 2) + [2]), cost=0.0, step_costs=np.zeros(n_t - 1),
                      abrupt=np.zeros(n_t - 1, bool))
+    # another folder named two_poses ran first in this home: this one's partition key is two_poses-<hash>
+    registry = tmp_path / "home" / "shots.json"
+    assert register_shot(registry, shutil.copytree(SAMPLE, tmp_path / "elsewhere" / "two_poses")) == "two_poses"
+    key = register_shot(registry, shot_dir)
+    assert key != "two_poses"
     store = Store(tmp_path / "home" / "storage")
-    store.write("seg0/rife_matrix", "two_poses", matrix)
-    store.write("seg0/optimal_path", "two_poses", BlendPaths(matrix.times, alphas, path, path))
+    store.write("seg0/rife_matrix", key, matrix)
+    store.write("seg0/optimal_path", key, BlendPaths(matrix.times, alphas, path, path))
 
     fig = lanes_figure(shot_dir, tmp_path / "home")
     assert fig.shape == (4 * TILE, LABEL_W + n_t * TILE, 3)  # the sample has ground truth: four rows
