@@ -124,7 +124,8 @@ def test_after_a_reload_the_panel_says_stale_when_the_plan_has_stale_stages(serv
 
 
 def test_the_panel_names_the_running_stage_and_its_progress_while_earlier_steps_report(serve, small_shot, open_page):
-    s = serve(small_shot, "--ahead", "--sleep", "1.0")
+    s = serve(small_shot, "--sleep", "2.0", "--stages",
+              "key1/refined_masks,seg0/key0/textured_template,seg0/key1/deformed_frames,inbetween_frames")
     page = open_page(s.url)
     page.click("#run")
     # the last stage started ahead of the steps before it: named from the first of their reports on
@@ -288,3 +289,23 @@ def test_skeleton_editing_keeps_every_pose_in_step_and_assumes_no_two_keys(serve
     # a new skeleton: the pose between the keys goes, every key pose is the box's (normalized corner order)
     assert out["afterTemplate"] == [[f, [[0, 50, 0], [100, 100, 0]]] for f in (0, 8, 20)]
     assert out["placedOnlyKey2"] is True
+
+
+def test_every_stage_row_shows_its_seconds_whole_however_long_its_name(serve, small_shot, open_page):
+    """The rerun panel is narrow: a long stage name gives way (cut short, in full on hover), never the state
+    and seconds beside it ("seg0/key0/textured_template re-ran 2.3" was cut at the panel's edge)."""
+    s = serve(small_shot, "--sleep", "2.0", "--stages",
+              "key1/refined_masks,seg0/key0/textured_template,seg0/key1/deformed_frames,inbetween_frames")
+    page = open_page(s.url)
+    page.click("#run")
+    until(page, "() => document.querySelector(\"#stage-list li[data-stage='seg0/key0/textured_template'] .st\")"
+                "?.textContent.startsWith('re-ran')", 30)
+    rows = page.evaluate("""() => [...document.querySelectorAll('#stage-list li')].map(li => {
+        const st = li.querySelector('.st').getBoundingClientRect(), box = li.getBoundingClientRect();
+        const name = li.querySelector('.name');
+        return [li.dataset.stage, st.left >= box.left - 0.5 && st.right <= box.right + 0.5,
+                li.querySelector('.st').textContent, name.title];
+    })""")
+    assert rows and all(inside for _, inside, _, _ in rows), [r for r in rows if not r[1]]
+    assert any(text.startswith("re-ran") for _, _, text, _ in rows)
+    assert all(title == stage for stage, _, _, title in rows)

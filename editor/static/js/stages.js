@@ -95,7 +95,9 @@ export class StagesPanel {
     const li = document.createElement('li');
     li.dataset.stage = name;
     const label = document.createElement('span');
+    label.className = 'name';
     label.textContent = name;
+    label.title = name;  // in full, where a narrow panel cuts it short
     const what = document.createElement('span');
     what.className = 'st';
     let row, text, title = '', share = null;
