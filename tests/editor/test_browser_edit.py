@@ -124,8 +124,7 @@ def test_after_a_reload_the_panel_says_stale_when_the_plan_has_stale_stages(serv
 
 
 def test_the_panel_names_the_running_stage_and_its_progress_while_earlier_steps_report(serve, small_shot, open_page):
-    s = serve(small_shot, "--sleep", "2.0", "--stages",
-              "key1/refined_masks,seg0/key0/textured_template,seg0/key1/deformed_frames,inbetween_frames")
+    s = serve(small_shot, "--ahead", "--sleep", "1.0")
     page = open_page(s.url)
     page.click("#run")
     # the last stage started ahead of the steps before it: named from the first of their reports on
