@@ -69,6 +69,8 @@ class DeformResult:
     grad_norm: float  # ||dE/dx|| in normalized coordinates
     converged: bool
     energy_history: np.ndarray = field(default_factory=lambda: np.zeros(0))  # (iterations + 1,) energy per iterate
+    path_x: list = field(default_factory=list)  # solve_along: (n, 2) pixels reached at each step of its path
+    path_energy: list = field(default_factory=list)  # solve_along: the energy at each step of its path
 
 
 def count_flipped(X: np.ndarray, F: np.ndarray) -> int:
@@ -305,16 +307,19 @@ class Deformer:
         settle in a crumpled minimum after thousands of iterations (over the samples' topologies: 163k iterations
         in all, energies up to 7x those of this path); a few steps along the motion reach the minimum the lanes'
         frame-by-frame deformation reaches, in a third of the iterations. Returns the last solve, with
-        iterations and the energy history of all steps.
+        iterations and the energy history of all steps, and the positions and energy reached at each step.
         """
         if not len(path):
             raise ValueError("solve_along needs at least one set of handle targets")
-        x, iterations, history = x0, 0, []
+        x, iterations, history, xs, energies = x0, 0, [], [], []
         for i, targets in enumerate(path):
             res = self.solve(targets, x0=x, grad_tol=grad_tol if i == len(path) - 1 else step_tol, max_iter=max_iter)
             x, iterations = res.x, iterations + res.iterations
             history.append(res.energy_history)
+            xs.append(res.x)
+            energies.append(res.energy)
         res.iterations, res.energy_history = iterations, np.concatenate(history)
+        res.path_x, res.path_energy = xs, energies
         return res
 
     def _direction(self, G: np.ndarray, PG: np.ndarray, hist: deque) -> np.ndarray:

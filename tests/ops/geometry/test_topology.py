@@ -182,7 +182,8 @@ def test_optimize_picks_the_lowest_energy():
     assert np.isclose(tpl.energy, min(energies))
     assert tpl.cut_assignment[0].tolist() == ([0, 1] if energies[0] <= energies[1] else [1, 0])
     # the winner's deformation to the other pose is unfolded, at the recorded energy
-    _, inc, x, _ = scored[int(np.argmin(energies))]
+    _, inc, steps, _ = scored[int(np.argmin(energies))]
+    x = steps[-1][0]
     assert count_flipped(x, inc.faces) == 0
     d = Deformer(inc.rest, inc.faces, inc.handles)
     assert np.isclose(d.energy(x, tpl.handle_targets(p1)), tpl.energy)
@@ -267,19 +268,41 @@ def test_the_other_cut_starts_from_its_neighbour_with_front_and_pocket_swapped()
     a, b = alternating(base.junctions[0], 0), alternating(base.junctions[0], 1)
     first = search.score([a])
     inc_b = incise(base, [b])
-    plain = transfer_positions(first.x[0], first.inc.faces, inc_b.faces, inc_b.rest)
-    assert count_flipped(plain, inc_b.faces) > 0
-    x0, limit = search._warm_start([b], [next(iter(search.cache))], 0)
-    assert x0 is not None and count_flipped(x0, inc_b.faces) == 0 and limit == WARM_START_LIMIT * first.energies[0]
+    for x, _ in first.steps[0]:  # at every step of the motion
+        plain = transfer_positions(x, first.inc.faces, inc_b.faces, inc_b.rest)
+        assert count_flipped(plain, inc_b.faces) > 0
+    x0, limit, step = search._warm_start([b], [next(iter(search.cache))], 0)
+    assert x0 is not None and count_flipped(x0, inc_b.faces) == 0
+    assert limit == WARM_START_LIMIT * first.steps[0][step][1]
+    assert Deformer(inc_b.rest, inc_b.faces, inc_b.handles).energy(x0, search.paths[0][step]) <= limit
     scored = search.score([b], [next(iter(search.cache))])
-    # started from there unless that start is crumpled beyond the limit (then from rest along the motion)
-    start = Deformer(inc_b.rest, inc_b.faces, inc_b.handles).energy(x0, search.paths[0][-1])
-    assert scored.warm == (start <= limit)
-    assert np.isclose(scored.energy, evaluate(base, [b], search.paths[0])[0], rtol=1e-2)
+    assert scored.warm and np.isclose(scored.energy, evaluate(base, [b], search.paths[0])[0], rtol=1e-2)
     # without a usable neighbour (no solution to carry) the cut is deformed from rest along the motion
     cold = _Search(base, search.paths, Solver())
-    cold.cache[_key([a])] = type(first)(np.inf, first.inc, [a], [None], [np.inf], False)
+    cold.cache[_key([a])] = type(first)(np.inf, first.inc, [a], [[None] * len(search.paths[0])], [np.inf], False)
     assert not cold.score([b], [_key([a])]).warm
+
+
+def test_a_start_crumpled_at_the_other_pose_is_carried_over_earlier_along_the_motion():
+    # the capsule's other cut, carried over from its neighbour's solution at the other key's pose, starts crumpled
+    # (above the limit); a quarter of the way there the sheets have not parted yet and it carries over within the
+    # limit: solved from that step on, it reaches the energy the path from rest reaches
+    refined, sk, p0, p1 = capsule_scene()
+    base = build_template(refined, p0, sk)
+    path = _path(base, sk, p0, p1)
+    search = _Search(base, [path], Solver())
+    a, b = alternating(base.junctions[0], 0), alternating(base.junctions[0], 1)
+    first = search.score([a])
+    inc_b = incise(base, [b])
+    d = Deformer(inc_b.rest, inc_b.faces, inc_b.handles, method="newton")
+    swapped = search._source_faces([b], first)
+    last = transfer_positions(first.steps[0][-1][0], swapped, inc_b.faces, inc_b.rest)
+    assert d.energy(last, path[-1]) > WARM_START_LIMIT * first.energies[0]
+    x0, limit, step = search._warm_start([b], [_key([a])], 0)
+    assert 0 <= step < len(path) - 1 and d.energy(x0, path[step]) <= limit
+    energy, _, steps, warm = evaluate(base, [b], path, Solver(), x0, limit, step)
+    assert warm and steps[:step] == [None] * step and all(s is not None for s in steps[step:])
+    assert np.isclose(energy, d.solve_along(path).energy, rtol=1e-3)
 
 
 @pytest.mark.parametrize("limit, warm", [(np.inf, True), (1.0, False)])
