@@ -1,7 +1,7 @@
 """Tests of ops.geometry.newton: the assembled Hessian against finite differences, and Newton's convergence."""
 import numpy as np
 
-from ops.geometry.deform import Deformer, count_flipped
+from ops.geometry.deform import Deformer, count_flipped, first_fold_time
 from ops.geometry.newton import NewtonSystem
 from tests.ops.geometry.test_deform import MID, bend, strip
 from tests.ops.geometry.test_energy import setup_mesh
@@ -59,3 +59,24 @@ def test_newton_converges_in_few_iterations_to_the_same_minimum():
     newton = Deformer(V, F, h, method="newton").solve(bend(MID, 40), grad_tol=1e-6)
     lbfgs = Deformer(V, F, h, method="lbfgs").solve(bend(MID, 40), grad_tol=1e-6)
     assert newton.converged and newton.iterations * 4 < lbfgs.iterations
+
+
+def test_a_full_newton_step_is_extended_while_the_energy_keeps_falling():
+    # along a quarter of the way to the minimum the energy falls past t = 1: the step doubles while it falls,
+    # never past 0.8 times the first fold; along the whole way it rises past t = 1: the unit step is kept
+    V, F, h = strip()
+    d = Deformer(V, F, h, method="newton")
+    targets = d.norm.to_norm(bend(MID, 30))
+    X = d.rest_n
+    best = d.norm.to_norm(d.solve(bend(MID, 30)).x)
+    for fraction in (0.25, 1.0):
+        D = fraction * (best - X)
+        E1, G1 = d.energy_fn.value_grad(X + D, targets)
+        t, E, G = d._extrapolate(X, D, targets, (1.0, E1, G1))
+        along = {s: d.energy_fn.value_grad(X + s * D, targets)[0] for s in (1.0, 2.0, 4.0, 8.0)}
+        assert t <= 0.8 * first_fold_time(X, D, F) and E == d.energy_fn.value_grad(X + t * D, targets)[0]
+        if fraction == 1.0:
+            assert t == 1.0 and along[2.0] > along[1.0]
+        else:
+            assert t >= 2.0 and E < E1 and (2 * t not in along or along[2 * t] >= E)
+        assert np.allclose(G, d.energy_fn.value_grad(X + t * D, targets)[1])
