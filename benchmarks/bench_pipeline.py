@@ -329,26 +329,36 @@ def extra_junctions(home: Path, partition: str, count: int) -> tuple[int, list[l
     return k, added
 
 
-def print_added_junctions(src: Path, tmp: Path, count: int) -> None:
-    """Cold runs of a shot and of the shot with `count` more T-junctions: per stage seconds and their ratio."""
+def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> None:
+    """Cold runs of a shot and of the shot with `count` more T-junctions, `rounds` times in turn: per stage the
+    median seconds and their ratio (a stage's seconds are wall time beside the other lane's stages on 2 cores,
+    so one round's ratio of a short stage swings 0.4-2x; the median of several rounds is what to read)."""
     base = shutil.copytree(src, tmp / "junctions" / "before" / src.name)
-    home0 = tmp / "junctions-home-before"
-    before = cli(["run", str(base), "--out", str(tmp / "junctions-out-before")], home0)
-    st0 = json.loads((tmp / "junctions-out-before" / "report.json").read_text())["stages"]
-    k, points = extra_junctions(home0, src.name, count)
-    shot = shutil.copytree(src, tmp / "junctions" / "after" / src.name)
-    data = json.loads((shot / "shot.json").read_text())
-    data["t_junctions"][k] = list(data["t_junctions"][k]) + points
-    (shot / "shot.json").write_text(json.dumps(data, indent=1))
-    after = cli(["run", str(shot), "--out", str(tmp / "junctions-out-after")], tmp / "junctions-home-after")
-    st1 = json.loads((tmp / "junctions-out-after" / "report.json").read_text())["stages"]
-    print(f"\nadding {count} T-junctions to {src.name}'s key{k} ({len(data['t_junctions'][k]) - count} -> "
-          f"{len(data['t_junctions'][k])}): cold run {before['wall']:.1f} s ({before['cpu']:.1f} s CPU) -> "
-          f"{after['wall']:.1f} s ({after['cpu']:.1f} s CPU), {after['wall'] / before['wall']:.2f}x")
-    print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}")
-    for stage in st0:
-        a, b = st0[stage]["seconds"], st1[stage]["seconds"]
-        print(f"{stage:28s} {a:8.2f} {b:8.2f} {b / a if a > 0.005 else float('nan'):6.2f}")
+    shot = tmp / "junctions" / "after" / src.name
+    walls, stages = {"before": [], "after": []}, {"before": [], "after": []}
+    for i in range(rounds):
+        for case in ("before", "after"):
+            home, out = tmp / f"junctions-home-{case}-{i}", tmp / f"junctions-out-{case}-{i}"
+            if case == "after" and i == 0:
+                k, points = extra_junctions(tmp / "junctions-home-before-0", src.name, count)
+                shutil.copytree(src, shot)
+                data = json.loads((shot / "shot.json").read_text())
+                data["t_junctions"][k] = list(data["t_junctions"][k]) + points
+                (shot / "shot.json").write_text(json.dumps(data, indent=1))
+            r = cli(["run", str(base if case == "before" else shot), "--out", str(out)], home)
+            walls[case].append(r["wall"])
+            stages[case].append(json.loads((out / "report.json").read_text())["stages"])
+    n = len(data["t_junctions"][k])
+    before, after = float(np.median(walls["before"])), float(np.median(walls["after"]))
+    print(f"\nadding {count} T-junctions to {src.name}'s key{k} ({n - count} -> {n}), {rounds} round(s), medians: "
+          f"cold run {before:.1f} s -> {after:.1f} s, {after / before:.2f}x")
+    print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}  per round")
+    for stage in stages["before"][0]:
+        a = [st[stage]["seconds"] for st in stages["before"]]
+        b = [st[stage]["seconds"] for st in stages["after"]]
+        ma, mb = float(np.median(a)), float(np.median(b))
+        each = " ".join(f"{y / x:.2f}" if x > 0.005 else "nan" for x, y in zip(a, b))
+        print(f"{stage:28s} {ma:8.2f} {mb:8.2f} {mb / ma if ma > 0.005 else float('nan'):6.2f}  {each}")
 
 
 def main() -> None:
@@ -362,7 +372,8 @@ def main() -> None:
     ap.add_argument("--add-junctions", default="arm_cross", help="shot of the 'adding 5 T-junctions' case")
     ap.add_argument("--no-add-junctions", action="store_true")
     ap.add_argument("--rounds", type=int, default=1, help="repeat each sample's cold run, RIFE-direct and edit in turn "
-                    "this many times (a shared machine: the median round is reported, every round's ratios printed)")
+                    "this many times, and the added T-junctions case's two runs (a shared machine: the median round is reported, "
+                    "every round's ratios printed)")
     args = ap.parse_args()
     print(f"{load()}, {os.cpu_count()} CPUs; times in seconds; cpu = user + sys of the process")
     with tempfile.TemporaryDirectory() as tmp:
@@ -373,10 +384,11 @@ def main() -> None:
             results[name] = run_sample(src, tmp, args.rounds)
             results[name]["size"] = size_of(src)
             print(f"  {name} done ({load()})", file=sys.stderr, flush=True)
-        print_samples(results)
-        print_stage_split(results)
+        if results:  # `--only` with no shot: only the sections below
+            print_samples(results)
+            print_stage_split(results)
         if not args.no_add_junctions:
-            print_added_junctions(Path(args.shots) / args.add_junctions, tmp, 5)
+            print_added_junctions(Path(args.shots) / args.add_junctions, tmp, 5, args.rounds)
         if not args.no_scaling:
             print_scaling(Path(args.shots) / "arm_cross", tmp, args.sizes, args.frames)
         if not args.no_batch:
