@@ -71,31 +71,44 @@ class _Log:
 class Resources:
     """The run's resources (the Definitions'), known from the start or given once the Dagster session is built:
     the run starts its stages first, and a stage that needs a resource before then waits for it
-    (`context.resources.rife`, as on a Dagster context)."""
+    (`context.resources.rife`, as on a Dagster context). Some may be given earlier (`provide_early`: the
+    network and the inpainter, built as the Definitions build them once Dagster is imported): a stage that
+    needs only those does not wait for the rest."""
 
     def __init__(self, values: dict[str, Any] | None = None):
-        self._values: dict[str, Any] | None = None
+        self._values: dict[str, Any] | None = None  # all of them, once given
+        self._early: dict[str, Any] = {}
         self._error: BaseException | None = None
-        self._ready = threading.Event()
+        self._changed = threading.Condition()
         if values is not None:
             self.provide(values)
 
     def provide(self, values: dict[str, Any]) -> None:
-        self._values = dict(values)
-        self._ready.set()
+        with self._changed:
+            self._values = dict(values)
+            self._changed.notify_all()
+
+    def provide_early(self, values: dict[str, Any]) -> None:
+        """Some of the resources, the very objects the Definitions will bind, before the rest."""
+        with self._changed:
+            self._early.update(values)
+            self._changed.notify_all()
 
     def fail(self, error: BaseException) -> None:
         """The session could not be built: a stage waiting for a resource fails with this."""
-        self._error = error
-        self._ready.set()
+        with self._changed:
+            self._error = error
+            self._changed.notify_all()
 
     @property
     def known(self) -> dict[str, Any] | None:
         """The resources, if they have been given (None while pending)."""
-        return self._values if self._ready.is_set() else None
+        return self._values
 
     def get(self) -> dict[str, Any]:
-        self._ready.wait()
+        """All the resources, once given."""
+        with self._changed:
+            self._changed.wait_for(lambda: self._values is not None or self._error is not None)
         if self._values is None:
             raise RuntimeError(f"the run's resources were not built: {self._error}")
         return self._values
@@ -103,6 +116,10 @@ class Resources:
     def __getattr__(self, name: str) -> Any:
         if name.startswith("_"):
             raise AttributeError(name)
+        with self._changed:
+            self._changed.wait_for(lambda: name in self._early or self._values is not None or self._error is not None)
+            if name in self._early and self._values is None:
+                return self._early[name]
         try:
             return self.get()[name]
         except KeyError:
@@ -258,7 +275,7 @@ def _warm_ups(stages: list[str], resources: Resources) -> list[Callable[[], Any]
     known = resources.known  # pending: the Definitions' resources, which always hold the network
     if (known is None or "rife" in known) and any("rife" in getattr(STAGE_SPECS.get(n), "resources", ())
                                                   for n in stages):
-        jobs.append(lambda: resources.get()["rife"].load())  # cached per process: the stage gets the loaded network
+        jobs.append(lambda: resources.rife.load())  # cached per process: the stage gets the loaded network
     if any(n.rsplit("/", 1)[-1] in TABLE_KINDS for n in stages):
         jobs.append(lambda: importlib.import_module("pandas"))
     return jobs

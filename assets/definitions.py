@@ -27,7 +27,8 @@ from .codeversion import project_fingerprint
 from .graph import EVAL_STAGES, union_sources
 from .home import home, shots_root
 from .resource_config import resource_config, resource_overrides
-from .stage import PARTITIONS, RESOURCE_TYPES, asset_key, source_assets, stage_asset
+from .resource_types import RESOURCE_TYPES, model_resources
+from .stage import PARTITIONS, asset_key, source_assets, stage_asset
 from .stages import EVALUATION_STAGES, SHOT_STAGES
 
 # the sources this process defines its stages from (assets/run/ compares it with the files on disk)
@@ -41,7 +42,7 @@ def build_resources(settings: Settings | None = None) -> dict:
         "shots": ShotsResource(shots_root=str(shots_root()), registry=str(h / "shots.json")),
         "settings": PipelineSettings(**(settings or Settings()).as_dict()),
         # configured from the environment (assets/resource_config.py); every stage records what it used
-        **{key: kind(**resource_overrides().get(key, {})) for key, kind in RESOURCE_TYPES.items()},
+        **model_resources(),
     }
 
 

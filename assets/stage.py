@@ -17,8 +17,6 @@ import numpy as np
 
 from ops.settings import RecordingSettings, Settings
 from ops.shotio.versions import source_versions
-from resources.inpainter import InpainterResource
-from resources.rife import RifeResource
 from resources.shots import ShotsResource
 from resources.storage import DIGEST_KEY, PROVENANCE_KEY
 
@@ -27,11 +25,9 @@ from .codeversion import code_version
 from .compute import STAGE_SPECS, MissingParents, StageDef, StageEnv, run_stage, working_ahead
 from .graph import shot_graph, union_graph, union_sources
 from .provenance import parent_versions
+from .resource_types import RESOURCE_TYPES  # noqa: F401  (the stages' resources, by key: re-exported)
 
 PARTITIONS = dg.DynamicPartitionsDefinition(name="shots")
-
-# the resources a stage may declare, by key (assets/compute.py names their modules, for the code records)
-RESOURCE_TYPES: dict[str, type] = {"rife": RifeResource, "inpainter": InpainterResource}
 
 
 def asset_key(name: str) -> dg.AssetKey:

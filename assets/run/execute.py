@@ -58,12 +58,16 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
 
     # the stages compute as soon as their parents have, ahead of the steps that record them, from before
     # Dagster is imported: their outputs are stored and recorded by their steps alone, and a stage that needs a
-    # resource waits for the Definitions'. The sources' versions are the ones the plan observed.
+    # resource waits for it (the network and the inpainter: until Dagster is imported). The sources' versions
+    # are the ones the plan observed.
     resources = Resources()
     with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
                                                   resources) as ahead:
         try:
-            session = Session.get(settings)
+            from ..resource_types import model_resources
+
+            resources.provide_early(model_resources())  # as the Definitions will bind them: no stage waits
+            session = Session.get(settings)  # for those while the Definitions and the instance are made
         except BaseException as e:
             resources.fail(e)
             raise

@@ -82,7 +82,7 @@ def _definition_facts_locked() -> dict:
 
 def _import_facts() -> dict:
     quiet_dagster_warnings()
-    from ..stage import RESOURCE_TYPES  # the resources' classes (Dagster's): their defaults are code
+    from ..resource_types import RESOURCE_TYPES  # the resources' classes (Dagster's): their defaults are code
 
     return {"records": _import_code_records(), "resources": {k: resource_config(t()) for k, t in RESOURCE_TYPES.items()}}
 

@@ -75,3 +75,35 @@ def test_an_idle_worker_loads_rife_before_rife_matrix_needs_it(monkeypatch):
     finally:
         work.close()
     assert order.index("load rife") < order.index("seg0/rife_matrix") and order.count("load rife") == 1
+
+
+def test_a_stage_takes_a_resource_given_early_without_waiting_for_the_rest():
+    # the run gives the network and the inpainter as soon as Dagster is imported, the rest (the Definitions')
+    # later: a stage asking for the inpainter gets it then; one asking for anything else waits for the rest,
+    # and once the rest is given every name answers from it
+    resources = ahead.Resources()
+    early, definitions = object(), {"inpainter": object(), "shots": object()}
+    got: dict[str, object] = {}
+    threads = [threading.Thread(target=lambda n=n: got.__setitem__(n, getattr(resources, n)))
+               for n in ("inpainter", "shots")]
+    for t in threads:
+        t.start()
+    resources.provide_early({"inpainter": early})
+    threads[0].join(10)
+    assert got == {"inpainter": early} and threads[1].is_alive() and resources.known is None
+    resources.provide(definitions)
+    threads[1].join(10)
+    assert got == {"inpainter": early, "shots": definitions["shots"]}
+    assert resources.inpainter is definitions["inpainter"] and resources.get() == definitions
+
+
+def test_a_stage_waiting_for_a_resource_fails_when_the_session_does():
+    resources = ahead.Resources()
+    resources.provide_early({"rife": object()})
+    resources.fail(RuntimeError("no instance"))
+    try:
+        resources.shots
+    except RuntimeError as e:
+        assert "no instance" in str(e)
+    else:
+        raise AssertionError("a resource the session never gave must fail")

@@ -19,7 +19,7 @@ def test_declaring_every_stage_imports_neither_dagster_nor_torch():
 
 def test_the_declarations_are_the_graph_and_the_dagster_assets():
     from assets import definitions
-    from assets.stage import RESOURCE_TYPES
+    from assets.resource_types import RESOURCE_TYPES
 
     assert set(STAGE_SPECS) == set(union_graph())
     assert {"/".join(k.path) for a in definitions.STAGE_ASSETS for k in a.keys} == set(STAGE_SPECS)
