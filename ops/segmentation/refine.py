@@ -32,6 +32,8 @@ from ops.warning_subject import about, inside_point
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
 SEGMENT_PX = 4.0  # boundary edge length of the deformation mesh
 MESH_DP_EPS_PX = 0.75  # tolerance of the contour the deformation mesh is built on
+EIGHT = np.ones((3, 3), bool)  # 8-connectivity: the pieces of a region
+MIN_PIECE_PX = 12  # a piece of a region smaller than this is no region of its own (the pair regions' minimum)
 
 
 # ---------------------------------------------------------------- polylines
@@ -204,6 +206,36 @@ def _positions(B: np.ndarray, J: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=0).astype(np.int64)
 
 
+def _split_pieces(regions: list[np.ndarray], fronts: list[np.ndarray], junctions: list[np.ndarray],
+                  warnings: list[str]) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    """The regions (each (H, W) bool) with one region per 8-connected piece of every region that has no
+    T-junction, each piece with its region's front bones (and no junction); a region with T-junctions as it is.
+
+    A template meshes a region's pocket from one boundary loop, so a region in pieces used to free its largest
+    piece only and glue the rest: the skeleton's capsules overlapping into one mask make the legs behind a
+    round belly and the forearm across the chest one region, and only the legs were freed (the forearm, lifted,
+    dragged the chest up with it). The pieces are separate overlaps; one under MIN_PIECE_PX is left out, as
+    every piece but the largest was before. A region with T-junctions keeps its largest piece, refined through
+    its clicks (below)."""
+    out: tuple[list, list, list] = ([], [], [])
+    for r, (region, front, J) in enumerate(zip(regions, fronts, junctions)):
+        labels, n = ndimage.label(region, structure=EIGHT)
+        if n < 2 or len(J):
+            pieces = [region]
+        else:
+            sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
+            keep = np.flatnonzero(sizes >= MIN_PIECE_PX) + 1
+            pieces = [labels == i for i in keep] if len(keep) else [region]
+            text = (f"has {n} pieces: made one region of each of the {len(keep)} of at least {MIN_PIECE_PX} px"
+                    if len(keep) else f"has {n} pieces, each under {MIN_PIECE_PX} px: its boundary describes the largest")
+            warnings.append(about("occlusion region", text, name=r, at=inside_point(region)))
+        for piece in pieces:
+            out[0].append(piece)
+            out[1].append(front)
+            out[2].append(J)
+    return out
+
+
 def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
                  other_pose: np.ndarray | list[np.ndarray] | None = None) -> RefinedMasks:
     """Refine every occlusion region of `masks` by the keyframe's (k, 2) T-junctions (pixels) at its (J, 3) pose.
@@ -217,6 +249,7 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     regions, front_bones, per_region, w = assign_junctions(np.asarray(t_junctions, np.float64).reshape(-1, 2),
                                                            masks.occlusion, masks.front_bones, fg, pose, skeleton)
     warnings += w
+    regions, front_bones, per_region = _split_pieces(regions, front_bones, per_region, warnings)
     thin = thin_overlaps(regions, masks.contacts)
     occ, fronts, bounds, juncs = [], [], [], []
     for r, (region, front, J) in enumerate(zip(regions, front_bones, per_region)):
@@ -224,13 +257,10 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
             warnings.append(about("occlusion region", f"({int(region.sum())} px) lies along a contact of two touching "
                                   "bodies: slit along the contact instead of a pocket", name=r, at=inside_point(region)))
             continue
-        n_comp = ndimage.label(region, structure=np.ones((3, 3), bool))[1]
+        n_comp = ndimage.label(region, structure=EIGHT)[1]
         at = inside_point(region)
-        if n_comp > 1 and len(J):
+        if n_comp > 1:  # only a region with T-junctions is still in pieces here (_split_pieces)
             warnings.append(about("occlusion region", f"has {n_comp} pieces; only the largest is refined and kept",
-                                  name=r, at=at))
-        elif n_comp > 1:
-            warnings.append(about("occlusion region", f"has {n_comp} pieces; its boundary describes the largest",
                                   name=r, at=at))
         if region.sum() < 3:
             warnings.append(about("occlusion region", "is smaller than 3 px and was dropped", name=r, at=at))

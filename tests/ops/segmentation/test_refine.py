@@ -185,3 +185,31 @@ def test_two_junctions_projecting_onto_one_corner_get_distinct_vertices():
 def test_rasterize_inverts_the_raw_contour():
     m = blob()
     assert np.array_equal(rasterize(raw_contour(m), m.shape), m)
+
+
+def test_a_region_in_pieces_without_clicks_becomes_one_region_per_piece():
+    # the skeleton's capsules can overlap into one mask of separate overlaps (a forearm across the chest, legs
+    # behind a belly): a pocket is meshed from one boundary loop, so each piece must be a region of its own, or
+    # only the largest is freed; a region with clicks keeps the piece its clicks refine
+    from ops.geometry.template import build_template
+
+    drawing, pose, skeleton, true, torso, _ = crossing_scene()
+    masks = build_masks(drawing, pose, skeleton, occlusion="skeleton")
+    low = torso & (np.arange(torso.shape[0])[:, None] > 112)  # the torso's bottom, apart from the forearm
+    assert not (low & true).any()
+    speck = np.zeros_like(low)
+    speck[100:102, 79:82] = True  # 6 px inside the torso, apart from both: no region of its own
+    assert not (speck & (low | true)).any() and torso[speck].all()
+    masks.occlusion, masks.front_bones = [true | low | speck], [np.array([3])]
+    refined = refine_masks(masks, np.zeros((0, 2)), pose, skeleton)
+    assert len(refined.occlusion) == 2
+    assert any("has 3 pieces: made one region of each of the 2 of at least" in w for w in refined.warnings)
+    for piece in (true, low):
+        assert max(iou(m, piece) for m in refined.occlusion) > 0.9
+    for m, B in zip(refined.occlusion, refined.boundaries):
+        assert iou(rasterize(B, m.shape) & masks.foreground, m) > 0.9  # each boundary describes its own piece
+    assert [f.tolist() for f in refined.front_bones] == [[3], [3]]
+    base = build_template(refined, pose, skeleton)
+    assert set(np.unique(base.face_region)) == {-1, 0, 1}  # both pieces are meshed as pockets
+    clicked = refine_masks(masks, np.array([[60.0, 78.0]]), pose, skeleton)
+    assert len(clicked.occlusion) == 1 and any("only the largest" in w for w in clicked.warnings)
