@@ -226,8 +226,14 @@ def _split_pieces(regions: list[np.ndarray], fronts: list[np.ndarray], junctions
             sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
             keep = np.flatnonzero(sizes >= MIN_PIECE_PX) + 1
             pieces = [labels == i for i in keep] if len(keep) else [region]
-            text = (f"has {n} pieces: made one region of each of the {len(keep)} of at least {MIN_PIECE_PX} px"
-                    if len(keep) else f"has {n} pieces, each under {MIN_PIECE_PX} px: its boundary describes the largest")
+            small = n - len(keep)
+            if not len(keep):
+                text = f"has {n} pieces, each under {MIN_PIECE_PX} px: its boundary describes the largest"
+            elif len(keep) == 1:
+                text = f"has {n} pieces: the {small} under {MIN_PIECE_PX} px left out"
+            else:
+                text = f"has {n} pieces: made one region of each" + (
+                    f" of the {len(keep)} of at least {MIN_PIECE_PX} px ({small} smaller left out)" if small else "")
             warnings.append(about("occlusion region", text, name=r, at=inside_point(region)))
         for piece in pieces:
             out[0].append(piece)

@@ -203,7 +203,8 @@ def test_a_region_in_pieces_without_clicks_becomes_one_region_per_piece():
     masks.occlusion, masks.front_bones = [true | low | speck], [np.array([3])]
     refined = refine_masks(masks, np.zeros((0, 2)), pose, skeleton)
     assert len(refined.occlusion) == 2
-    assert any("has 3 pieces: made one region of each of the 2 of at least" in w for w in refined.warnings)
+    assert any("has 3 pieces: made one region of each of the 2 of at least 12 px (1 smaller left out)" in w
+               for w in refined.warnings)
     for piece in (true, low):
         assert max(iou(m, piece) for m in refined.occlusion) > 0.9
     for m, B in zip(refined.occlusion, refined.boundaries):
@@ -213,3 +214,7 @@ def test_a_region_in_pieces_without_clicks_becomes_one_region_per_piece():
     assert set(np.unique(base.face_region)) == {-1, 0, 1}  # both pieces are meshed as pockets
     clicked = refine_masks(masks, np.array([[60.0, 78.0]]), pose, skeleton)
     assert len(clicked.occlusion) == 1 and any("only the largest" in w for w in clicked.warnings)
+    masks.occlusion = [true | speck]  # one piece left: no split, the speck left out
+    alone = refine_masks(masks, np.zeros((0, 2)), pose, skeleton)
+    assert len(alone.occlusion) == 1 and any("has 2 pieces: the 1 under 12 px left out" in w for w in alone.warnings)
+    assert not (alone.occlusion[0] & speck).any()
