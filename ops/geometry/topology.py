@@ -218,9 +218,23 @@ def handle_path(base: TemplateBase, pose_self: np.ndarray, pose_other: np.ndarra
             for pose in pose_path(pose_self, pose_other, parents)]
 
 
+_SOLVE_ERRORS = (ValueError, RuntimeError, np.linalg.LinAlgError)  # a topology that cannot be deformed: energy inf
+
+
+def prepare(base: TemplateBase, assignments: list[Assignment], solver: Solver = Solver()
+            ) -> tuple[Incised, Deformer | None]:
+    """The incised template of `assignments` and its Deformer (None when its energy cannot be set up)."""
+    inc = incise(base, assignments)
+    try:
+        return inc, Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method)
+    except _SOLVE_ERRORS:
+        return inc, None
+
+
 def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.ndarray],
              solver: Solver = Solver(), x0: np.ndarray | None = None, x0_max_energy: float = np.inf,
-             start: int | None = None) -> tuple[float, Incised, list[tuple[np.ndarray, float] | None], bool]:
+             start: int | None = None, prepared: tuple[Incised, Deformer | None] | None = None
+             ) -> tuple[float, Incised, list[tuple[np.ndarray, float] | None], bool]:
     """Energy (inf on failure) of deforming the incised template along handle targets path (each (h, 2)
     pixels), the incised template, per step of the path its vertices (n, 2) pixels and energy there (None
     where the solve did not start or failed), and whether the solve started from x0.
@@ -228,12 +242,13 @@ def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.nd
     From rest the deformation follows the whole path; from x0 ((n, 2) pixels, fold-free: a neighbouring
     topology's solution at step `start` of the path (default: the last), carried over, ops.geometry.warmstart)
     it follows the path from that step on, unless x0's energy there exceeds x0_max_energy: then from rest after
-    all (module docstring)."""
-    inc = incise(base, assignments)
+    all (module docstring). prepared: what `prepare` gave for these assignments (else made here)."""
+    inc, d = prepared or prepare(base, assignments, solver)
     start = len(path) - 1 if start is None else start
     steps: list[tuple[np.ndarray, float] | None] = [None] * len(path)
+    if d is None:
+        return np.inf, inc, steps, False
     try:
-        d = Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method)
         if x0 is not None and not d.energy(x0, path[start]) <= x0_max_energy:
             x0 = None
         if x0 is None:
@@ -242,7 +257,7 @@ def evaluate(base: TemplateBase, assignments: list[Assignment], path: list[np.nd
         energy = res.energy if np.isfinite(res.energy) else np.inf
         if np.isfinite(energy):
             steps[start:] = list(zip(res.path_x, res.path_energy))
-    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+    except _SOLVE_ERRORS:
         energy = np.inf
     return float(energy), inc, steps, x0 is not None
 
@@ -279,18 +294,21 @@ class _Search:
         """The evaluated topology of `assignments` (one per region); neighbours: cache keys, in preference order."""
         key = _key(assignments)
         if key not in self.cache:
-            es, xs, warm, inc = [], [], True, None
+            es, xs, warm = [], [], True
+            prepared = prepare(self.base, assignments, self.solver)  # once for every target pose and start
+            inc = prepared[0]
             for i, path in enumerate(self.paths):
-                x0, limit, start = self._warm_start(assignments, neighbours, i)
-                e, inc, x, warmed = evaluate(self.base, assignments, path, self.solver, x0, limit, start)
+                x0, limit, start = self._warm_start(assignments, neighbours, i, prepared)
+                e, _, x, warmed = evaluate(self.base, assignments, path, self.solver, x0, limit, start, prepared)
                 if warmed and not np.isfinite(e):  # the warm start failed: from rest after all
-                    e, inc, x, warmed = evaluate(self.base, assignments, path, self.solver)
+                    e, _, x, warmed = evaluate(self.base, assignments, path, self.solver, prepared=prepared)
                 es, warm = es + [e], warm and warmed
                 xs.append(x)
             self.cache[key] = _Scored(float(sum(es)), inc, list(assignments), xs, es, warm)
         return self.cache[key]
 
-    def _warm_start(self, assignments: list[Assignment], neighbours, i: int
+    def _warm_start(self, assignments: list[Assignment], neighbours, i: int,
+                    prepared: tuple[Incised, Deformer | None] | None = None
                     ) -> tuple[np.ndarray | None, float, int | None]:
         """A fold-free start (n, 2) pixels on the path to target i carried over from a neighbour (else None), the
         most energy it may start with (WARM_START_LIMIT times the neighbour's there), and its step of the path:
@@ -301,13 +319,13 @@ class _Search:
         A region whose cut is the neighbour's with every label flipped (the other cut of an even count, the
         other family of an odd one at the same cusp) sews its pocket where the neighbour sewed its front: its
         front faces take the neighbour's pocket faces' corners and its pocket faces the front ones', so every
-        face keeps an unfolded shape (carried corner by corner, about half of them fold)."""
+        face keeps an unfolded shape (carried corner by corner, about half of them fold). prepared: `prepare`'s
+        for `assignments` (else made here)."""
         sources = [self.cache[k] for k in neighbours if k in self.cache]
-        if not sources:
+        inc, d = prepared or prepare(self.base, assignments, self.solver)
+        if not sources or d is None:
             return None, np.inf, None
-        inc = incise(self.base, assignments)
         faces = [self._source_faces(assignments, src) for src in sources]
-        d = None
         for step in range(len(self.paths[i]) - 1, -1, -1):
             for src, source_faces in zip(sources, faces):
                 if src.steps[i][step] is None:
@@ -316,7 +334,6 @@ class _Search:
                 x0 = transfer_positions(x, source_faces, inc.faces, inc.rest)
                 if count_flipped(x0, inc.faces) > 0:
                     continue
-                d = d or Deformer(inc.rest, inc.faces, inc.handles, self.solver.mu, self.solver.method)
                 if d.energy(x0, self.paths[i][step]) <= WARM_START_LIMIT * energy:
                     return x0, WARM_START_LIMIT * energy, step
         return None, np.inf, None
