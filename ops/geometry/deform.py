@@ -253,7 +253,8 @@ class Deformer:
         while gnorm >= grad_tol and len(energies) <= max_iter:
             D, cap, newton_step = None, 0.0, False
             if not eager and lbfgs_left == 0:
-                D, cap = self._newton_direction(X, G)
+                D, reach = self._newton_direction(X, G)
+                cap = min(1.0, reach)
                 if cap < NEWTON_CAP:  # Newton meets the barrier: L-BFGS for a while, longer each time in a row
                     backoff = min(2 * backoff or 1, MAX_BACKOFF)
                     lbfgs_left = backoff
@@ -270,7 +271,7 @@ class Deformer:
                 cap = self._injective_step(X, D)
             step = self._line_search(X, D, E, G, T, cap)
             if step is not None and newton_step and step[0] == 1.0:
-                step = self._extrapolate(X, D, T, step)
+                step = self._extrapolate(X, D, T, step, reach)
             if step is None and (hist or not eager):
                 hist.clear()
                 PG = self.precondition(G) if PG is None else PG
@@ -289,8 +290,8 @@ class Deformer:
         return X, E, G, energies
 
     def _newton_direction(self, X: np.ndarray, G: np.ndarray) -> tuple[np.ndarray | None, float]:
-        """(projected Newton direction (n, 2), its injectivity-capped step), or (None, 0) where the projected
-        Hessian is singular or the direction does not descend."""
+        """(projected Newton direction (n, 2), 0.8 times its first fold time: the longest step injectivity allows),
+        or (None, 0) where the projected Hessian is singular or the direction does not descend."""
         if self._newton is None:
             self._newton = NewtonSystem(self.energy_fn, self._diagonal)
         try:
@@ -299,7 +300,7 @@ class Deformer:
             return None, 0.0
         if np.vdot(D, G) >= 0:
             return None, 0.0
-        return D, self._injective_step(X, D)
+        return D, 0.8 * self._fold_time(X, D)
 
     def solve_along(
         self,
@@ -361,10 +362,9 @@ class Deformer:
         m = len(self.faces)
         return _fold_time((self._edges @ X).reshape(m, 2, 2), (self._edges @ D).reshape(m, 2, 2))
 
-    def _extrapolate(self, X, D, T, step):
+    def _extrapolate(self, X, D, T, step, cap: float):
         """A full Newton step accepted: (t, E, G) at the lowest energy of t = 2, 4, .. along D while it keeps
-        falling, each t capped at 0.8 times the first fold time."""
-        cap = 0.8 * self._fold_time(X, D)
+        falling, each t capped at `cap` (0.8 times the first fold time along D)."""
         t = step[0]
         while min(2.0 * t, cap) > 1.01 * t:
             t2 = min(2.0 * t, cap)

@@ -72,7 +72,7 @@ def test_a_full_newton_step_is_extended_while_the_energy_keeps_falling():
     for fraction in (0.25, 1.0):
         D = fraction * (best - X)
         E1, G1 = d.energy_fn.value_grad(X + D, targets)
-        t, E, G = d._extrapolate(X, D, targets, (1.0, E1, G1))
+        t, E, G = d._extrapolate(X, D, targets, (1.0, E1, G1), 0.8 * first_fold_time(X, D, F))
         along = {s: d.energy_fn.value_grad(X + s * D, targets)[0] for s in (1.0, 2.0, 4.0, 8.0)}
         assert t <= 0.8 * first_fold_time(X, D, F) and E == d.energy_fn.value_grad(X + t * D, targets)[0]
         if fraction == 1.0:
