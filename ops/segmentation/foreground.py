@@ -5,7 +5,8 @@
 2. Ink is any colour far enough from the local paper in CIELAB (ΔE*ab): dark lines, but also pale skin,
    yellow and light washes, which luminance alone misses. The threshold follows the page's own noise.
 3. Small gaps in outlines are closed; the enclosed insides filled, and so are insides the frame cuts
-   open (a leg running off the bottom edge) where a bone runs through them.
+   open (a leg running off the bottom edge) where a bone runs through them, and insides a bone runs through
+   whose outline is drawn in strokes with wider breaks (closed at twice the radius for them alone).
 4. The skeleton is the prior: every component a bone touches is kept, specks no bone touches dropped.
 5. Enclosed paper that is background seen through the body becomes a hole (ops.segmentation.holes).
 6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage);
@@ -35,6 +36,8 @@ PAPER_FACTOR = 1.5  # a fringe pixel within this many times the median noise of 
 MIN_PAPER_DELTA_E = 1.0  # ... or within this ΔE*ab of it (a noiseless page)
 BLUR_SIGMA = 0.8  # pixels: averages paper grain and JPEG noise before the ink decision
 CLOSE_SHARE = 0.008  # closing radius as a share of the image's long side: seals pencil gaps, keeps limbs apart
+BROKEN_SCALE = 4  # an inside a bone crosses is sealed across gaps this many times the closing radius
+MIDDLE_SHARE = 0.5  # ... when the bone reaches this share of the inside's greatest depth (runs through its middle)
 BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touched by it
 WALL_SCALE, WALL_MARGIN_PX = 2.0, 4.0  # ink within WALL_SCALE x body radius + margin of a bone belongs to that body part
 MARGIN_PX = 2  # the mask reaches this far past the ink: the 2-px Douglas-Peucker mesh boundary keeps the soft edge
@@ -104,16 +107,52 @@ def fill_insides(ink: np.ndarray, points: np.ndarray) -> np.ndarray:
     border = border[border > 0]
     sizes = np.bincount(labels.ravel(), minlength=n + 1)
     page = border[np.argmax(sizes[border])]
-    # a bone runs through a region when several of its samples lie clear of the region's ink
+    counts = bone_crossings(labels, n, points)
+    cut_open = [int(r) for r in border if r != page and counts[r] >= MIN_BONE_SAMPLES]
+    return filled | np.isin(labels, cut_open) if cut_open else filled
+
+
+def bone_crossings(labels: np.ndarray, n: int, points: np.ndarray) -> np.ndarray:
+    """(n + 1,) int64: per label of a (H, W) int labelling (0 = none), the bone samples (points: (m, 2) float64
+    x y pixels) that lie clear of its edge (5 x 5 erosion): several of them mean a bone runs through it."""
     clear = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
-    h, w = ink.shape
+    h, w = labels.shape
     col = np.round(points[:, 0]).astype(int)
     row = np.round(points[:, 1]).astype(int)
     ok = (col >= 0) & (col < w) & (row >= 0) & (row < h)
     hit = labels[row[ok], col[ok]][clear[row[ok], col[ok]]]
-    counts = np.bincount(hit, minlength=n + 1)
-    cut_open = [int(r) for r in border if r != page and counts[r] >= MIN_BONE_SAMPLES]
-    return filled | np.isin(labels, cut_open) if cut_open else filled
+    return np.bincount(hit, minlength=n + 1)
+
+
+def enclose_broken(ink: np.ndarray, inside: np.ndarray, points: np.ndarray, radius: int) -> tuple[np.ndarray, int]:
+    """Insides of outlines drawn with breaks wider than the closing's: ((H, W) bool, how many).
+
+    ink: (H, W) bool ink; inside: (H, W) bool what the finer closing already filled; points: (m, 2) float64 bone
+    samples, x y pixels. A region of paper that the ink encloses once gaps up to `radius` pixels are closed, and
+    that a bone runs through the middle of, is a body part outlined in broken strokes (the inside of a belly
+    drawn as dashes). The page is crossed by no bone; background seen between limbs (between a stick arm and the
+    head) at most along its edge, where a bone drawn beside its stroke runs: the bone must reach at least
+    MIDDLE_SHARE of the region's greatest depth. Returned with the closing's bridges across its gaps, so the
+    outline's pieces around it are one component. The wider closing decides nothing else: limbs a few pixels
+    apart stay apart.
+    """
+    wide = closing(ink, radius)
+    labels, n = ndimage.label(ndimage.binary_fill_holes(wide) & ~wide & ~inside)
+    if n == 0:
+        return np.zeros_like(ink), 0
+    depth = cv2.distanceTransform((labels > 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+    deepest = ndimage.maximum(depth, labels, np.arange(n + 1))
+    h, w = ink.shape
+    col, row = np.round(points[:, 0]).astype(int), np.round(points[:, 1]).astype(int)
+    ok = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+    on_bone = np.zeros(n + 1)
+    np.maximum.at(on_bone, labels[row[ok], col[ok]], depth[row[ok], col[ok]])
+    crossed = bone_crossings(labels, n, points) >= MIN_BONE_SAMPLES
+    kept = np.nonzero(crossed[1:] & (on_bone[1:] >= MIDDLE_SHARE * np.asarray(deepest)[1:]))[0] + 1
+    regions = np.isin(labels, kept)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1,) * 2)
+    bridges = (cv2.dilate(regions.astype(np.uint8), disc) > 0) & wide
+    return regions | bridges, len(kept)
 
 
 def _count(mask: np.ndarray) -> int:
@@ -202,7 +241,12 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     r = close_radius(shape)
     sealed = closing(page.smooth_delta > page.ink_delta, r)
     points, owner = bone_samples(pose, skeleton)
-    silhouette, warnings = bone_touched(fill_insides(sealed, points), touch)
+    filled = fill_insides(sealed, points)
+    broken, n_broken = enclose_broken(sealed, filled, points, BROKEN_SCALE * r)
+    silhouette, warnings = bone_touched(filled | broken, touch)
+    if n_broken:
+        warnings.append(f"closed gaps of up to {BROKEN_SCALE * r} px in the outline around {n_broken} inside(s) a "
+                        "bone runs through (an outline drawn in broken strokes); check the foreground preview")
     radii = bone_radii(silhouette, pose, skeleton)
     reach = WALL_SCALE * radii + WALL_MARGIN_PX
     near = bone_capsules(shape, pose, skeleton, reach)

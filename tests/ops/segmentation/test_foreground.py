@@ -205,6 +205,55 @@ def test_every_bone_touched_component_is_kept_and_specks_dropped():
     assert not fg.mask[area(speck) > 0].any() and not fg.mask[area(scribble) > 0].any()
 
 
+def dashed_ellipse(p: np.ndarray, centre, radii, half: float, gaps: int, gap_px: float) -> np.ndarray:
+    """(..., ) bool: an ellipse's outline of stroke half-width `half` at (..., 2) points p, broken by `gaps`
+    evenly spaced gaps about gap_px long (along the outline)."""
+    d = (p - np.asarray(centre, float)) / np.asarray(radii, float)
+    r = np.hypot(d[..., 0], d[..., 1])
+    stroke = np.abs(r - 1) * min(radii) <= half
+    angle = np.arctan2(d[..., 1], d[..., 0]) % (2 * np.pi)
+    gap = gap_px / np.mean(radii)  # radians of outline per gap
+    phase = (angle + 0.3) % (2 * np.pi / gaps)
+    return stroke & (phase > gap)
+
+
+def test_a_belly_outlined_in_broken_strokes_is_filled_and_its_dashes_kept():
+    """Breaks of 9 px, wider than the closing seals (2 px radius at this size): the inside a bone runs through
+    the middle of is the body, and every dash around it is kept with it, not dropped as specks."""
+    shape = (192, 192)
+    p = subgrid(shape)
+    belly = dashed_ellipse(p, (96, 110), (38, 50), 1.4, gaps=6, gap_px=9)
+    neck = capsule_sdf(p, (96, 20), (96, 58), 1.6) <= 0  # a stick neck that meets the belly's top
+    drawing = noisy(paint(OFF_WHITE, [(area(belly | neck), INK)]))
+    skeleton = chain(["hips", "neck", "head"])
+    pose = np.array([[96, 150, 0], [96, 70, 0], [96, 22, 0.0]])
+    fg = segment_foreground(drawing, pose, skeleton)
+    centres = subgrid(shape, 1)
+    inside = ((centres[..., 0] - 96) / 36) ** 2 + ((centres[..., 1] - 110) / 48) ** 2 <= 1
+    assert fg.mask[inside].all()
+    assert fg.mask[area(belly) >= 0.5].all()  # dashes no bone touches are kept: they bound the filled inside
+    assert any("broken strokes" in w for w in fg.warnings)
+
+
+def test_background_between_a_stick_arm_and_the_head_stays_page():
+    """A stick arm raised beside an outlined head, its hand 9 px from the head; the arm's bones drawn 5 px off
+    its strokes, into the paper between them. Closed across the hand's gap that paper is enclosed and a bone
+    crosses it, but only along its edge: it is background, not a body part drawn in broken strokes."""
+    shape = (192, 192)
+    p = subgrid(shape)
+    head = np.abs(capsule_sdf(p, (110, 48), (110, 48), 20)) <= 1.4
+    body = capsule_sdf(p, (110, 68), (110, 170), 1.6) <= 0
+    arm = np.minimum(capsule_sdf(p, (110, 100), (40, 85), 1.6), capsule_sdf(p, (40, 85), (82, 30), 1.6)) <= 0
+    drawing = noisy(paint(OFF_WHITE, [(area(head | body | arm), INK)]))
+    skeleton = Skeleton(("hips", "neck", "head", "elbow", "hand"), np.array([-1, 0, 1, 1, 3]))
+    # the arm's bones 5 px off its strokes, towards the head
+    pose = np.array([[110, 170, 0], [112, 89, 0], [110, 48, 0], [51, 81, 0], [90.5, 36.5, 0.0]])
+    fg = segment_foreground(drawing, pose, skeleton)
+    between = area(capsule_sdf(p, (70, 70), (80, 75), 3) <= 0) > 0  # paper between the arm, head and body
+    assert not fg.mask[between].any()
+    assert not any("broken strokes" in w for w in fg.warnings)
+
+
 def test_rgba_cutout_uses_its_alpha():
     shape = (128, 128)
     p = subgrid(shape)
