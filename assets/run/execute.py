@@ -28,7 +28,7 @@ from ..graph import EVAL_STAGES, shot_graph
 from .errors import StageFailed
 from .locks import shot_lock
 from .logs import log_path
-from .planning import Plan, _remember_ui, plan, register, stage_warnings, store
+from .planning import Plan, _remember_ui, code_records, plan, register, stage_warnings, store
 from .session import Session, retry_database_locked
 
 EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (assets/farm/, docs/production.md)
@@ -72,6 +72,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
             resources.fail(e)
             raise
         resources.provide(session.resources)
+        code_records()  # cached for the next plan, which needs them (this one may not have: a new home's first run)
         session.ensure_partition(p.partition)
         session.observe(p.partition, p.sources)
         session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)

@@ -11,6 +11,7 @@ import os
 import subprocess
 import sys
 import threading
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -100,6 +101,27 @@ def current_resources() -> dict[str, dict]:
     return {k: {**v, **over.get(k, {})} for k, v in resource_defaults().items()}
 
 
+class _OnFirstUse(Mapping):
+    """A read-only mapping that `make()` computes when it is first read."""
+
+    def __init__(self, make: Callable[[], dict]):
+        self._make, self._value = make, None
+
+    def _data(self) -> dict:
+        if self._value is None:
+            self._value = self._make()
+        return self._value
+
+    def __getitem__(self, key):
+        return self._data()[key]
+
+    def __iter__(self):
+        return iter(self._data())
+
+    def __len__(self) -> int:
+        return len(self._data())
+
+
 @dataclass
 class Plan:
     """What a run of one shot would do."""
@@ -142,8 +164,10 @@ def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[s
     partition = register(shot.root)
     sources = source_versions(shot)
     st = store()
-    statuses = resolve(partition, st, sources, settings or Settings(), code_records(), stages, graph,
-                       current_resources())
+    # the code records and the resources' defaults matter only to a stage with a stored output: a shot's first
+    # run in a new home decides without them, and so without importing Dagster before its first stage starts
+    statuses = resolve(partition, st, sources, settings or Settings(), _OnFirstUse(code_records), stages, graph,
+                       _OnFirstUse(current_resources))
     try:
         ui = json.loads(_ui_record_path(partition).read_text())
     except (OSError, ValueError):

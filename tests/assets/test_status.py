@@ -3,6 +3,9 @@ executes, after an annotation edit, a settings change and a code change (issue 1
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
@@ -13,6 +16,7 @@ from assets.run import planning
 from ops.settings import Settings
 
 STAGES = shot_graph(2).stages
+ROOT = Path(__file__).resolve().parents[2]
 
 pytestmark = pytest.mark.slow
 
@@ -30,6 +34,8 @@ def executed(report: dict) -> set[str]:
 def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, monkeypatch, capsys):
     out = tmp_path / "out"
     runs.run_shot(small_shot, out)
+    # the first run in this home planned without the code records; it leaves them cached for the plans below
+    assert json.loads((home / "code_records.json").read_text())["records"] == planning.code_records()
     assert not_fresh(small_shot) == set()
 
     # 1. a key1 T-junction moves by one pixel
@@ -81,6 +87,18 @@ def test_status_predicts_exactly_what_run_executes(home, small_shot, tmp_path, m
     assert {"key0/template", "key1/template", "inbetween_frames"} <= stale and "key0/masks" not in stale
     assert stale == set(STAGES) - {"key0/masks", "key0/refined_masks", "key1/masks", "key1/refined_masks"}
     assert executed(runs.run_shot(small_shot, out)) == stale
+
+
+def test_a_shots_first_plan_in_a_new_home_needs_no_dagster(home, small_shot):
+    # nothing stored: every stage runs whatever the code records say, so the plan does not import the definitions
+    # (and Dagster with them) before the run's first stage can start
+    code = ("import json, sys; from assets.run.planning import plan; p = plan(sys.argv[1]); "
+            "print(json.dumps([sorted(p.to_run), 'dagster' in sys.modules]))")
+    out = subprocess.run([sys.executable, "-c", code, str(small_shot)], cwd=ROOT, capture_output=True, text=True,
+                         check=True)
+    to_run, dagster = json.loads(out.stdout.strip().splitlines()[-1])
+    assert to_run == sorted(STAGES) and not dagster
+    assert not (home / "code_records.json").exists()
 
 
 def _directly_stale(shot) -> dict[str, list[str]]:
