@@ -135,9 +135,13 @@ def _textured(s: int, k: int):
         others = [o for o in shot.segment_keys(s) if o != k]
         other = env.read(f"key{others[0]}/refined_masks") if others else None
         other_pose = shot.key_pose(others[0]) if others else None
-        textured, energy = env.offload(texture_lane, env.read(f"key{k}/template"), env.read(f"key{k}/refined_masks"),
-                                       other, shot.key_pose(k), other_pose, env.resource("inpainter").get(), st.mu,
-                                       st.grad_tol, st.max_iter)
+        template: Template = env.read(f"key{k}/template")
+        # the cut search's solution at the other key's pose (its targets are the neighbouring keys', in order)
+        at_other = shot.neighbours(k).index(others[0]) if others else None
+        start = template.target_x[at_other] if at_other is not None and at_other < len(template.target_x) else None
+        textured, energy = env.offload(texture_lane, template, env.read(f"key{k}/refined_masks"), other,
+                                       shot.key_pose(k), other_pose, env.resource("inpainter").get(), st.mu,
+                                       st.grad_tol, st.max_iter, start)
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),

@@ -6,7 +6,8 @@ T-junction, the cusp search), or with --shots DIR every keyframe of the sample s
 masks computed first, not timed). Per keyframe and per solver, on the same problems:
 - search: optimize_topology (the template's cut search, scored along the motion), its CPU seconds, the
   deformation iterations it took, the topologies it deformed and the winner's energy;
-- texture: the lane's direct solve from rest to the other key pose (ops/appearance/lane.py texture_lane);
+- texture: the textured template's solve to the other key pose (ops/appearance/lane.py texture_lane), from the
+  search's solution there (Template.target_x) as the pipeline starts it;
 - frames: the 9-frame deformation, each frame from its neighbour (deform_sequence), and its folds;
 both on the mesh the Newton search chose. Solvers: `newton` (projected Newton, L-BFGS steps where the
 injectivity bound blocks it: the cut search's) and `lbfgs` (the Laplacian-preconditioned L-BFGS: the lanes').
@@ -174,7 +175,8 @@ def run(problems: list[tuple], slim: bool) -> None:
                                                                     solver=Solver(method=method)))
             chosen = chosen or tpl  # the Newton search's template: the mesh both solvers deform below
             d = Deformer(chosen.rest, chosen.faces, chosen.handles, method=method)
-            tex, tex_s = cpu_timed(lambda: d.solve(chosen.handle_targets(other)))
+            start = chosen.target_x[0] if chosen.target_x and len(chosen.target_x[0]) else None
+            tex, tex_s = cpu_timed(lambda: d.solve(chosen.handle_targets(other), x0=start))
             (X, E, it), seq_s = cpu_timed(lambda: deform_sequence(chosen, poses, "backward" if k else "forward", d))
             folds = sum(count_flipped(x, chosen.faces) for x in X)
             print(f"{name:24s} {method:7s} | {search_s:8.2f} {count.iterations:6d} {tpl.trials:5d} {tpl.energy:8.4f} | "
@@ -192,9 +194,8 @@ def run(problems: list[tuple], slim: bool) -> None:
     print("\ntotals (CPU s, iterations)    search          texture         9 frames")
     for method, t in totals.items():
         print(f"{method:28s} {t[0]:7.2f} {t[1]:7.0f} {t[2]:7.2f} {t[3]:7.0f} {t[4]:7.2f} {t[5]:7.0f}")
-    a, b = totals["newton"], totals["lbfgs"]
-    print(f"{'newton / lbfgs':28s} {a[0] / b[0]:7.2f} {a[1] / b[1]:7.2f} {a[2] / b[2]:7.2f} {a[3] / b[3]:7.2f} "
-          f"{a[4] / b[4]:7.2f} {a[5] / b[5]:7.2f}")
+    ratio = totals["newton"] / np.where(totals["lbfgs"] > 0, totals["lbfgs"], np.nan)  # nan: nothing to compare
+    print(f"{'newton / lbfgs':28s} " + " ".join(f"{r:7.2f}" for r in ratio))
 
 
 def main() -> None:

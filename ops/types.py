@@ -192,6 +192,9 @@ class Template:
     region_keys: list[str] = field(default_factory=list)
     reused_regions: list[int] = field(default_factory=list)
     budget_regions: list[int] = field(default_factory=list)
+    # per target pose of the cut search (the neighbouring keys' poses, in Shot.neighbours order), the template's
+    # vertices (n, 2) pixels deformed there by the search along the motion; (0, 2) where it found none
+    target_x: list[np.ndarray] = field(default_factory=list)
 
     def handle_targets(self, pose: np.ndarray) -> np.ndarray:
         """(h, 2) float64 handle target positions for a (J, 3) pose (ops.geometry.handles)."""

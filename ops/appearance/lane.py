@@ -18,14 +18,22 @@ from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedT
 
 def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks | None, pose: np.ndarray,
                  other_pose: np.ndarray | None, inpainter: Inpainter, mu: float = 200.0, grad_tol: float = 0.01,
-                 max_iter: int = 5000) -> tuple[TexturedTemplate, float]:
+                 max_iter: int = 5000, start: np.ndarray | None = None) -> tuple[TexturedTemplate, float]:
     """Depth weights + textures (§5.1) from both keyframes' masks and key poses (J, 3) -> (textured, energy at the
-    other). Without another keyframe (None: one drawing) the hidden layers are inpainted and the energy is 0."""
+    other). Without another keyframe (None: one drawing) the hidden layers are inpainted and the energy is 0.
+
+    start: (n, 2) pixels, the template already deformed to the other pose (the cut search's solution there,
+    Template.target_x, found along the motion): the solve there starts from it instead of from rest, which for a
+    limb swung far (a tail curling round) took thousands of iterations and could land in a crumpled minimum."""
     weights = depth_weights(template)
     if other is None:
         return texture_template(template, weights, own, None, pose, None, inpainter), 0.0
     deformer = Deformer(template.rest, template.faces, template.handles, mu=mu)
-    to_other = deformer.solve(template.handle_targets(other_pose), grad_tol=grad_tol, max_iter=max_iter)
+    targets = template.handle_targets(other_pose)
+    x0 = start if start is not None and start.shape == template.rest.shape else None
+    if x0 is not None and not np.isfinite(deformer.energy(x0, targets)):
+        x0 = None  # folds (not the search's solution for this mesh): from rest
+    to_other = deformer.solve(targets, x0=x0, grad_tol=grad_tol, max_iter=max_iter)
     textured = texture_template(template, weights, own, other, pose, to_other.x, inpainter)
     return textured, float(to_other.energy)
 

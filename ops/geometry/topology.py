@@ -541,5 +541,11 @@ def optimize_topology(
         handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
         cut_assignment=[a.labels.copy() for a in choice], energy=float(winner.energy), trials=len(search.cache),
         mode=mode, warnings=warnings, cut_switches=[a.switches.copy() for a in choice], region_keys=keys,
-        reused_regions=reused, budget_regions=over,
+        reused_regions=reused, budget_regions=over, target_x=[_last_solution(path) for path in winner.steps],
     )
+
+
+def _last_solution(steps: list[tuple[np.ndarray, float] | None]) -> np.ndarray:
+    """(n, 2) pixels: the solution at a path's last step (its target pose), or (0, 2) where none was found."""
+    last = steps[-1] if steps else None
+    return np.array(last[0], np.float64) if last is not None and np.isfinite(last[1]) else np.zeros((0, 2))

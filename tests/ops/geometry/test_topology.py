@@ -5,6 +5,8 @@ import cv2
 import numpy as np
 import pytest
 
+from ops.appearance.inpaint import make_inpainter
+from ops.appearance.lane import texture_lane
 from ops.geometry.deform import Deformer, count_flipped, deform_sequence
 from ops.geometry.mesh import boundary_loops, vertex_components
 from ops.geometry.polygon import project_to_polyline
@@ -237,6 +239,24 @@ def test_scoring_along_the_motion_finds_the_minimum_a_direct_solve_misses():
     assert np.isclose(along.energy, energies[-1], rtol=1e-3)
     # the template stage scores exactly this deformation
     assert np.isclose(optimize_topology(refined, p0, p1, sk).energy, along.energy, rtol=1e-6)
+
+
+def test_the_template_keeps_the_searchs_solution_at_each_target_and_the_texture_solve_starts_there():
+    # the textured template deforms the template to the other key's pose to see which pockets that key shows: from
+    # rest it stopped in the crumpled minimum above after ~1900 iterations; from the search's solution along the
+    # motion (Template.target_x) it starts at the minimum the lane's frames reach
+    refined, sk, p0, p1 = tail_scene()
+    tpl = optimize_topology(refined, p0, p1, sk)
+    (x,) = tpl.target_x
+    assert x.shape == tpl.rest.shape and count_flipped(x, tpl.faces) == 0
+    assert np.isclose(Deformer(tpl.rest, tpl.faces, tpl.handles).energy(x, tpl.handle_targets(p1)), tpl.energy)
+    assert [t.shape for t in optimize_topology(refined, p0, [p1, p0], sk).target_x] == [x.shape, x.shape]
+    ink = make_inpainter("telea", 3)
+    _, from_search = texture_lane(tpl, refined, refined, p0, p1, ink, start=x)
+    _, from_rest = texture_lane(tpl, refined, refined, p0, p1, ink)
+    assert np.isclose(from_search, tpl.energy, rtol=1e-3) and from_search < 0.75 * from_rest
+    # a start that is not this template's (another mesh's vertices) is ignored: from rest
+    assert texture_lane(tpl, refined, refined, p0, p1, ink, start=x[:-1])[1] == from_rest
 
 
 def test_cusp_families_cover_exactly_the_odd_assignments():
