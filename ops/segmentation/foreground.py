@@ -6,7 +6,8 @@
    yellow and light washes, which luminance alone misses. The threshold follows the page's own noise.
 3. Small gaps in outlines are closed; the enclosed insides filled, and so are insides the frame cuts
    open (a leg running off the bottom edge) where a bone runs through them, and insides a bone runs through
-   whose outline is drawn in strokes with wider breaks (closed at twice the radius for them alone).
+   the middle of whose outline is drawn in strokes with wider breaks (closed at four times the radius for them
+   alone).
 4. The skeleton is the prior: every component a bone touches is kept, specks no bone touches dropped.
 5. Enclosed paper that is background seen through the body becomes a hole (ops.segmentation.holes).
 6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage);
@@ -116,12 +117,15 @@ def bone_crossings(labels: np.ndarray, n: int, points: np.ndarray) -> np.ndarray
     """(n + 1,) int64: per label of a (H, W) int labelling (0 = none), the bone samples (points: (m, 2) float64
     x y pixels) that lie clear of its edge (5 x 5 erosion): several of them mean a bone runs through it."""
     clear = cv2.erode((labels > 0).astype(np.uint8), np.ones((5, 5), np.uint8)) > 0
-    h, w = labels.shape
-    col = np.round(points[:, 0]).astype(int)
-    row = np.round(points[:, 1]).astype(int)
-    ok = (col >= 0) & (col < w) & (row >= 0) & (row < h)
-    hit = labels[row[ok], col[ok]][clear[row[ok], col[ok]]]
-    return np.bincount(hit, minlength=n + 1)
+    row, col = _pixels(points, labels.shape)
+    return np.bincount(labels[row, col][clear[row, col]], minlength=n + 1)
+
+
+def _pixels(points: np.ndarray, shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, cols) int arrays of the (m, 2) x y pixel points that fall inside an image of `shape` (H, W)."""
+    col, row = np.round(points[:, 0]).astype(int), np.round(points[:, 1]).astype(int)
+    ok = (col >= 0) & (col < shape[1]) & (row >= 0) & (row < shape[0])
+    return row[ok], col[ok]
 
 
 def enclose_broken(ink: np.ndarray, inside: np.ndarray, points: np.ndarray, radius: int) -> tuple[np.ndarray, int]:
@@ -142,11 +146,9 @@ def enclose_broken(ink: np.ndarray, inside: np.ndarray, points: np.ndarray, radi
         return np.zeros_like(ink), 0
     depth = cv2.distanceTransform((labels > 0).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     deepest = ndimage.maximum(depth, labels, np.arange(n + 1))
-    h, w = ink.shape
-    col, row = np.round(points[:, 0]).astype(int), np.round(points[:, 1]).astype(int)
-    ok = (col >= 0) & (col < w) & (row >= 0) & (row < h)
+    row, col = _pixels(points, ink.shape)
     on_bone = np.zeros(n + 1)
-    np.maximum.at(on_bone, labels[row[ok], col[ok]], depth[row[ok], col[ok]])
+    np.maximum.at(on_bone, labels[row, col], depth[row, col])
     crossed = bone_crossings(labels, n, points) >= MIN_BONE_SAMPLES
     kept = np.nonzero(crossed[1:] & (on_bone[1:] >= MIDDLE_SHARE * np.asarray(deepest)[1:]))[0] + 1
     regions = np.isin(labels, kept)
