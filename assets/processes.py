@@ -10,7 +10,12 @@ The processes are forked from multiprocessing's fork server, a fresh interpreter
 (PRELOAD, about 1 s, while the run starts Dagster), never from this multi-threaded process (a fork of it
 could inherit a lock some other thread holds). Each op's arguments and result are pickled between this
 process and its own children: the one place besides `batch` where pickle crosses a process boundary, and
-both ends are our code (docs/design.md, threat model). A worker ignores SIGINT (Ctrl-C reaches the whole
+both ends are our code (docs/design.md, threat model). A pickle larger than SPILL_BYTES (the drawings, the
+lanes' frames: 5-24 MB at 384 px) travels as a file in memory (tmpfs), written and read in one call each,
+not through the pool's pipe: that pipe carries 64 KB at a time, and each of its hundreds of reads in this
+process waited for the GIL behind Dagster's bookkeeping (a lane's 24 MB frames took 0.35-0.5 s to arrive, the
+op itself 0.5 s). The files live in this process's own folder, removed at exit (and by the next pool when
+the process that made it was killed). A worker ignores SIGINT (Ctrl-C reaches the whole
 process group; the run itself stops and exits 130) and ends when this process does: the pool's processes are
 terminated at exit, and one whose parent is gone finds its pipe closed.
 """
@@ -20,14 +25,19 @@ import atexit
 import multiprocessing
 import multiprocessing.util  # noqa: F401  (registers its exit handler before ours: see shutdown)
 import os
+import pickle
+import shutil
 import signal
 import sys
+import tempfile
 import threading
 import types
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 WORKERS = 2  # the machine's cores: the two lanes
@@ -35,10 +45,13 @@ WORKERS = 2  # the machine's cores: the two lanes
 PRELOAD = ("ops.appearance.lane", "ops.geometry.topology", "ops.segmentation.masks")
 STARTUP_WAIT_S = 30.0  # at exit, how long the workers still being started are waited for
 ENV_SWITCH = "INBETWEEN_PROCESSES"  # "0": every op in the calling thread (a batch worker's shot, a debugger)
+SPILL_BYTES = 1 << 20  # a pickled argument list or result larger than this travels as a file, not through the pipe
+SPILL_PREFIX = "inbetween-spill-"  # + this process's pid + "-": the folder of its files
 
 _lock = threading.Lock()
 _pool: ProcessPoolExecutor | None = None
 _started = threading.Event()  # set once the current pool's workers are started
+_spill_dir: Path | None = None  # this process's folder of spilled pickles, made on first use
 
 
 def enabled() -> bool:
@@ -101,8 +114,9 @@ def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     if executor is None:
         return fn(*args, **kwargs)
     _started.wait()  # the workers were started with this process's __main__ hidden: never by an op's submit
+    folder = _spill_folder()
     try:
-        return executor.submit(_call, fn, args, kwargs).result()
+        return _unpack(executor.submit(_call, fn, _pack((args, kwargs), folder), folder).result())
     except BrokenProcessPool:
         _discard(executor)
         raise RuntimeError(f"the worker process running {fn.__module__}.{fn.__qualname__} died "
@@ -110,12 +124,13 @@ def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
                            "in this process") from None
 
 
-def _call(fn: Callable[..., Any], args: tuple, kwargs: dict) -> Any:
-    """In the worker: fn(*args, **kwargs); an exception that could not be rebuilt from its pickle in this process
-    (a constructor whose arguments are not its args) is sent as a RuntimeError with its type and message:
-    failing to unpickle it would break the whole pool."""
+def _call(fn: Callable[..., Any], packed: bytes | _Spilled, folder: Path) -> bytes | _Spilled:
+    """In the worker: fn(*args, **kwargs) of the packed (args, kwargs), its result packed; an exception that could
+    not be rebuilt from its pickle in this process (a constructor whose arguments are not its args) is sent as a
+    RuntimeError with its type and message: failing to unpickle it would break the whole pool."""
+    args, kwargs = _unpack(packed)
     try:
-        return fn(*args, **kwargs)
+        return _pack(fn(*args, **kwargs), folder)
     except Exception as e:
         try:  # rebuilt from its reduction, as unpickling in this process would rebuild it
             rebuild, rebuild_args, *_ = e.__reduce__()
@@ -123,6 +138,60 @@ def _call(fn: Callable[..., Any], args: tuple, kwargs: dict) -> Any:
         except Exception:  # noqa: BLE001  (whatever the exception's own constructor raises)
             raise RuntimeError(f"{type(e).__name__}: {e}") from None
         raise
+
+
+@dataclass(frozen=True)
+class _Spilled:
+    """A pickle too large for the pipe: the file holding it (read once, then removed)."""
+
+    path: str
+
+
+def _pack(value: Any, folder: Path) -> bytes | _Spilled:
+    """value pickled: the bytes, or the file they were written to when larger than SPILL_BYTES."""
+    data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    if len(data) <= SPILL_BYTES:
+        return data
+    fd, path = tempfile.mkstemp(dir=folder, suffix=".pickle")
+    with os.fdopen(fd, "wb") as f:
+        f.write(data)
+    return _Spilled(path)
+
+
+def _unpack(packed: bytes | _Spilled) -> Any:
+    """The value `_pack` packed; a spilled file is removed once read."""
+    if isinstance(packed, _Spilled):
+        path = Path(packed.path)
+        data = path.read_bytes()
+        path.unlink()
+        return pickle.loads(data)
+    return pickle.loads(packed)
+
+
+def _spill_folder() -> Path:
+    """This process's folder of spilled pickles: in memory (/dev/shm) where there is one, made on first use. The
+    folders of processes that are gone (killed before their exit handler ran) are removed first."""
+    global _spill_dir
+    with _lock:
+        if _spill_dir is None or not _spill_dir.is_dir():
+            shm = Path("/dev/shm")
+            base = shm if shm.is_dir() and os.access(shm, os.W_OK) else Path(tempfile.gettempdir())
+            for old in base.glob(f"{SPILL_PREFIX}*"):
+                if not _alive(old.name[len(SPILL_PREFIX):].split("-")[0]):
+                    shutil.rmtree(old, ignore_errors=True)
+            _spill_dir = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=base))
+        return _spill_dir
+
+
+def _alive(pid: str) -> bool:
+    """Whether the process `pid` (a folder name's digits) still runs; an unreadable name counts as alive."""
+    try:
+        os.kill(int(pid), 0)
+    except ProcessLookupError:
+        return False
+    except (ValueError, PermissionError):  # not a pid; another user's process
+        return True
+    return True
 
 
 def _discard(executor: ProcessPoolExecutor) -> None:
@@ -142,14 +211,17 @@ def shutdown() -> None:
     (assets/run/leave.py) never does, so that join would wait forever. Hence this runs before that handler (exit
     handlers run last registered first, and multiprocessing.util, imported above, registers its handler before
     this module registers this one), and it first lets the thread that starts the workers finish (a quick run
-    can end while a worker is still being forked: left out of the kill below, it hung the exit)."""
-    global _pool
+    can end while a worker is still being forked: left out of the kill below, it hung the exit). Then this
+    process's spilled pickles are removed."""
+    global _pool, _spill_dir
     with _lock:
         executor, _pool = _pool, None
         started = _started
-    if executor is None:
-        return
-    started.wait(STARTUP_WAIT_S)
-    for p in list(getattr(executor, "_processes", {}).values()):  # what shutdown(wait=False) leaves running
-        p.kill()  # not terminate(): under nohup or a scheduler that ignores SIGTERM the workers inherit SIG_IGN
-    executor.shutdown(wait=False, cancel_futures=True)
+        folder, _spill_dir = _spill_dir, None
+    if executor is not None:
+        started.wait(STARTUP_WAIT_S)
+        for p in list(getattr(executor, "_processes", {}).values()):  # what shutdown(wait=False) leaves running
+            p.kill()  # not terminate(): under nohup or a scheduler that ignores SIGTERM the workers inherit SIG_IGN
+        executor.shutdown(wait=False, cancel_futures=True)
+    if folder is not None:
+        shutil.rmtree(folder, ignore_errors=True)

@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
+import subprocess
+import sys
 
+import numpy as np
 import pytest
 
 import assets.processes as processes
@@ -97,3 +101,31 @@ def test_a_command_that_leaves_while_its_workers_start_exits_at_once_and_cleanly
         out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, timeout=60,
                              env=env, preexec_fn=dispositions)
         assert out.returncode == 0 and "Traceback" not in out.stderr, out.stderr[-2000:]
+
+
+def test_large_arguments_and_results_travel_as_files_that_are_removed_once_read():
+    big = np.arange(processes.SPILL_BYTES // 4, dtype=np.float64).reshape(-1, 2)  # 2x SPILL_BYTES pickled
+    out = processes.run(_scaled, big, factor=3.0)
+    np.testing.assert_array_equal(out, big * 3.0)
+    folder = processes._spill_folder()
+    assert folder.is_dir() and not any(folder.iterdir())  # both files read and removed
+    assert processes.run(divmod, 7, 2) == (3, 1)  # small ones through the pipe
+
+
+def _scaled(a, factor):
+    assert a.nbytes > processes.SPILL_BYTES
+    return a * factor
+
+
+def test_a_spill_folder_of_a_process_that_is_gone_is_removed_by_the_next_one(tmp_path, monkeypatch):
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    base = processes._spill_folder().parent
+    stale = base / f"{processes.SPILL_PREFIX}{int(gone.stdout)}-test"
+    stale.mkdir()
+    (stale / "x.pickle").write_bytes(b"left by a killed run")
+    monkeypatch.setattr(processes, "_spill_dir", None)
+    mine = processes._spill_folder()
+    try:
+        assert not stale.exists() and mine.is_dir()
+    finally:
+        shutil.rmtree(mine)  # the process's own folder is put back by monkeypatch
