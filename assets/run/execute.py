@@ -44,7 +44,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
     if executor == "celery":
         session = Session.get(settings)
         session.ensure_partition(p.partition)
-        session.observe(p.partition, p.sources)
+        session.observe(p.partition, p.unobserved)  # what the instance observed before stays its latest
         result = session.materialize_farm(p.shot.root, p.partition, names, log_path(p.partition), verbose)
         return stage_timings(result.all_events)
     processes.pool()  # the workers' fork server imports the ops while this process imports the stages
@@ -74,7 +74,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
         resources.provide(session.resources)
         code_records()  # cached for the next plan, which needs them (this one may not have: a new home's first run)
         session.ensure_partition(p.partition)
-        session.observe(p.partition, p.sources)
+        session.observe(p.partition, p.unobserved)  # what the instance observed before stays its latest
         session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)
         if outputs is not None:
             for n in outputs.keys() & ahead.memory.keys():

@@ -12,7 +12,7 @@ import subprocess
 import sys
 import threading
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from ops.settings import Settings
@@ -131,6 +131,12 @@ class Plan:
     sources: dict[str, str]  # source asset -> data version (content hash)
     statuses: dict[str, StageStatus]  # stage -> status
     recorded: bool  # the Dagster instance already records exactly these versions (the UI is current)
+    observed: dict[str, str] = field(default_factory=dict)  # source -> the version the instance last observed
+
+    @property
+    def unobserved(self) -> dict[str, str]:
+        """The sources whose current version the Dagster instance has not observed yet (a run reports these)."""
+        return {k: v for k, v in self.sources.items() if self.observed.get(k) != v}
 
     @property
     def graph(self) -> ShotGraph:
@@ -174,10 +180,10 @@ def plan(shot_dir: str | Path, settings: Settings | None = None, stages: tuple[s
         ui = {}
     current = {"instance": instance_id(), "sources": sources,
                "stages": {n: st.hash(n, partition) for n in stages}}
-    recorded = (current["instance"] is not None and ui.get("instance") == current["instance"]
-                and ui.get("sources") == sources
+    same_instance = current["instance"] is not None and ui.get("instance") == current["instance"]
+    recorded = (same_instance and ui.get("sources") == sources
                 and all(ui.get("stages", {}).get(n) == v for n, v in current["stages"].items()))
-    return Plan(shot, partition, sources, statuses, recorded)
+    return Plan(shot, partition, sources, statuses, recorded, dict(ui.get("sources") or {}) if same_instance else {})
 
 
 def _remember_ui(p: Plan, stages: tuple[str, ...]) -> None:

@@ -127,3 +127,32 @@ def test_a_resource_change_makes_exactly_its_users_stale(home, small_shot, tmp_p
         assert all(any(c.startswith(f"resource {key} changed ({field} ") for c in cs) for cs in direct.values())
         monkeypatch.delenv(var)
     assert not_fresh(small_shot) == set()
+
+
+def test_a_run_observes_only_the_sources_that_changed_and_the_instance_keeps_every_current_version(
+        home, small_shot, tmp_path, monkeypatch):
+    from dagster._core.definitions.data_version import extract_data_version_from_entry
+
+    from assets.run.session import Session
+    from assets.stage import asset_key
+    from ops.shotio.load import load_shot
+    from ops.shotio.versions import source_versions
+
+    observed: list[set[str]] = []
+    observe = Session.observe
+    monkeypatch.setattr(Session, "observe", lambda self, partition, sources: (
+        observed.append(set(sources)), observe(self, partition, sources))[1])
+    runs.run_shot(small_shot, tmp_path / "out")
+    data = json.loads((small_shot / "shot.json").read_text())
+    data["t_junctions"][1][0][0] += 1.0
+    (small_shot / "shot.json").write_text(json.dumps(data))
+    runs.run_shot(small_shot, tmp_path / "out")
+    shot = load_shot(small_shot)
+    current = source_versions(shot)
+    assert observed == [set(current), {"key1/t_junctions"}]
+    plan = runs.status(small_shot)
+    instance = Session.get(Settings()).instance
+    for name, version in current.items():  # what the UI compares the stages' inputs with
+        record = instance.get_latest_data_version_record(asset_key(name), is_source=True,
+                                                         partition_key=plan.partition)
+        assert extract_data_version_from_entry(record.event_log_entry).value == version, name
