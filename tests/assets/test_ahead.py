@@ -1,6 +1,7 @@
 """The work-ahead (assets/ahead.py) without Dagster's steps: outputs written ahead, idle workers warming up."""
 from __future__ import annotations
 
+import sys
 import threading
 from types import SimpleNamespace
 
@@ -107,3 +108,15 @@ def test_a_stage_waiting_for_a_resource_fails_when_the_session_does():
         assert "no instance" in str(e)
     else:
         raise AssertionError("a resource the session never gave must fail")
+
+
+def test_while_working_ahead_a_thread_waits_at_most_a_millisecond_for_the_gil(monkeypatch):
+    seen = []
+    monkeypatch.setattr(ahead, "run_stage", lambda name, env, parents, settings: (
+        seen.append(sys.getswitchinterval()), _outcome(name))[1])
+    monkeypatch.setattr(ahead.processes, "pool", lambda: None)
+    before = sys.getswitchinterval()
+    with ahead.working_ahead("p", ["key0/masks"], TWO_KEYS, {}, Settings(), _Store(), {}) as work:
+        work.outcome("key0/masks", _Context())
+    assert seen == [ahead.GIL_SWITCH_S] and ahead.GIL_SWITCH_S < before
+    assert sys.getswitchinterval() == before  # the process's own setting again
