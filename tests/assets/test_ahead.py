@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import sys
 import threading
+import time
 from types import SimpleNamespace
 
 import assets.ahead as ahead
@@ -120,3 +121,31 @@ def test_while_working_ahead_a_thread_waits_at_most_a_millisecond_for_the_gil(mo
         work.outcome("key0/masks", _Context())
     assert seen == [ahead.GIL_SWITCH_S] and ahead.GIL_SWITCH_S < before
     assert sys.getswitchinterval() == before  # the process's own setting again
+
+
+def test_the_next_stage_starts_while_its_parents_output_is_still_being_written(monkeypatch):
+    computed, release = [], threading.Event()
+    monkeypatch.setattr(ahead, "run_stage", lambda name, env, parents, settings: (computed.append(name),
+                                                                                  _outcome(name))[1])
+
+    class SlowStore(_Store):
+        def stage(self, name, partition, value, digest, provenance=None):
+            if name == "key0/masks":
+                assert release.wait(10)
+            super().stage(name, partition, value, digest, provenance)
+
+    store = SlowStore()
+    work = ahead.WorkAhead("p", ["key0/masks", "key0/refined_masks"], TWO_KEYS, {}, Settings(), store, {})
+    work.start()
+    try:
+        deadline = time.monotonic() + 10
+        while "key0/refined_masks" not in computed and time.monotonic() < deadline:
+            time.sleep(0.01)
+        assert computed == ["key0/masks", "key0/refined_masks"] and store.staged == []  # masks still being written
+        release.set()
+        for name in ("key0/masks", "key0/refined_masks"):  # a step still waits until its output is written
+            work.outcome(name, _Context())
+            assert name in store.staged
+    finally:
+        release.set()
+        work.close()
