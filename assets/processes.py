@@ -25,7 +25,6 @@ import atexit
 import multiprocessing
 import multiprocessing.util  # noqa: F401  (registers its exit handler before ours: see shutdown)
 import os
-import pickle
 import shutil
 import signal
 import sys
@@ -37,6 +36,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass
+from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
 from typing import Any
 
@@ -148,8 +148,9 @@ class _Spilled:
 
 
 def _pack(value: Any, folder: Path) -> bytes | _Spilled:
-    """value pickled: the bytes, or the file they were written to when larger than SPILL_BYTES."""
-    data = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+    """value pickled as the pool pickles its calls (ForkingPickler): the bytes, or the file they were written to
+    when larger than SPILL_BYTES (in `folder`, made by mkdtemp: only this user can write there)."""
+    data = bytes(ForkingPickler.dumps(value))
     if len(data) <= SPILL_BYTES:
         return data
     fd, path = tempfile.mkstemp(dir=folder, suffix=".pickle")
@@ -164,8 +165,8 @@ def _unpack(packed: bytes | _Spilled) -> Any:
         path = Path(packed.path)
         data = path.read_bytes()
         path.unlink()
-        return pickle.loads(data)
-    return pickle.loads(packed)
+        return ForkingPickler.loads(data)
+    return ForkingPickler.loads(packed)
 
 
 def _spill_folder() -> Path:

@@ -109,6 +109,7 @@ def test_large_arguments_and_results_travel_as_files_that_are_removed_once_read(
     np.testing.assert_array_equal(out, big * 3.0)
     folder = processes._spill_folder()
     assert folder.is_dir() and not any(folder.iterdir())  # both files read and removed
+    assert folder.stat().st_mode & 0o077 == 0  # no other user can put a pickle there
     assert processes.run(divmod, 7, 2) == (3, 1)  # small ones through the pipe
 
 
