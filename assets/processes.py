@@ -150,9 +150,9 @@ class _Spilled:
 def _pack(value: Any, folder: Path) -> bytes | _Spilled:
     """value pickled as the pool pickles its calls (ForkingPickler): the bytes, or the file they were written to
     when larger than SPILL_BYTES (in `folder`, made by mkdtemp: only this user can write there)."""
-    data = bytes(ForkingPickler.dumps(value))
+    data = ForkingPickler.dumps(value)  # a view of the pickler's buffer: copied only when it is sent inline
     if len(data) <= SPILL_BYTES:
-        return data
+        return bytes(data)
     fd, path = tempfile.mkstemp(dir=folder, suffix=".pickle")
     with os.fdopen(fd, "wb") as f:
         f.write(data)
