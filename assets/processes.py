@@ -93,6 +93,12 @@ def _start_workers(executor: ProcessPoolExecutor, started: threading.Event) -> N
         started.set()
 
 
+def wait_started() -> None:
+    """Block until this process's pool (if started) has started its workers: their fork server's imports done."""
+    if _pool is not None:
+        _started.wait()
+
+
 @contextmanager
 def _main_module_hidden() -> Iterator[None]:
     """While workers start: multiprocessing would have each run this process's __main__ again (as __mp_main__:

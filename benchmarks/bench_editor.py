@@ -7,10 +7,13 @@
 2. save to refreshed frames after a key1 T-junction edit (moved by --move px, default 3): PUT /api/shot, the
    background rerun, and every output frame fetched again, as the page does when the rerun reports done; with
    the CPU seconds of the rerun process (and its children), which a loaded machine does not stretch, and what
-   the rerun panel said while rife_matrix ran (its progress events).
+   the rerun panel said while rife_matrix ran (its progress events). Each save comes --think s (default 10: a
+   person making the fix) after the editor started or its last rerun ended, and is measured --rounds times
+   (default 2) with the rerun made ready ahead (the editor's standby, editor/rerun.py) and without it
+   (INBETWEEN_STANDBY=0), alternately, each in an editor of its own.
 
     python benchmarks/bench_editor.py [--shot data_samples/arm_cross] [--scale 1.0] [--home DIR] [--only repose|save]
-                                      [--move 3]
+                                      [--move 3] [--think 10] [--rounds 2]
 
 The shot is copied into a temporary folder and run cold once (printed too), so its templates are cached;
 the editor is then started as `python -m editor SHOT --port 0 --no-browser` in its own process, the way
@@ -96,7 +99,7 @@ def _cpu_seconds(pid: int) -> float | None:
     return sum(int(v) for v in fields[11:15]) / os.sysconf("SC_CLK_TCK")  # utime stime cutime cstime
 
 
-def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> None:
+def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> float:
     shot = json.loads(request(url + "/api/shot")[0])
     shot["t_junctions"][1][0][0] += move
     partition = json.loads(request(url + "/api/info")[0])["partition"]
@@ -125,15 +128,31 @@ def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> None:
         request(url + f"/api/frames/{i}.png?v={info['version']}")
     total = time.perf_counter() - t0
     ran = {n: s["seconds"] for n, s in status["stages"].items() if not s["cached"]}
-    print(f"save -> refreshed frames after moving a key1 T-junction by {move:g} px: {total:.1f} s "
+    log = json.loads((home / "editor" / partition / "rerun.json").read_text()).get("log", "")
+    how = "in the standby" if Path(log).name.startswith("standby-") else "in a new process"
+    print(f"save -> refreshed frames after moving a key1 T-junction by {move:g} px, run {how}: {total:.1f} s "
           f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s; "
-          f"CPU of the rerun process >= {cpu or 0:.1f} s; load average {os.getloadavg()[0]:.1f} at the end)")
+          f"CPU of the rerun process >= {cpu or 0:.1f} s{' (its warm-up included)' if 'standby' in how else ''}; load average {os.getloadavg()[0]:.1f} at the end)")
     rife = [s for s in said if s.startswith("rife_matrix")]
     if rife:
         print(f"  while rife_matrix ran the panel named it with {len(rife)} different progress states: "
               f"{rife[0]!r} first, {rife[-1]!r} last")
     print(f"  stages re-run: {len(ran)} of {len(status['stages'])}, stage seconds {sum(ran.values()):.1f}: "
           + ", ".join(f"{n} {s:.2f}" for n, s in ran.items()))
+    return total
+
+
+def editor(shot_dir: Path, home: Path, standby: bool) -> tuple[subprocess.Popen, str]:
+    """An editor server of the shot in its own process (as `inbetween edit` runs it) and its URL."""
+    env = {**env_for(home), "INBETWEEN_STANDBY": "1" if standby else "0"}
+    proc = subprocess.Popen([sys.executable, "-m", "editor", str(shot_dir), "--port", "0", "--no-browser"],
+                            env=env, cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    return proc, re.search(r"http://127\.0\.0\.1:\d+", proc.stdout.readline()).group(0)
+
+
+def close(proc: subprocess.Popen) -> None:
+    proc.send_signal(signal.SIGINT)
+    proc.wait(30)
 
 
 def main() -> None:
@@ -146,6 +165,8 @@ def main() -> None:
     ap.add_argument("--moves", type=int, default=10)
     ap.add_argument("--only", choices=["repose", "save"], default=None)
     ap.add_argument("--move", type=float, default=3.0, help="px the key1 T-junction moves before the save")
+    ap.add_argument("--think", type=float, default=10.0, help="s from the editor's start to the save")
+    ap.add_argument("--rounds", type=int, default=2, help="saves with the standby and without it, alternately")
     args = ap.parse_args()
     base = Path(args.home) if args.home else Path(tempfile.mkdtemp(prefix="bench_editor-"))
     shot_dir, home = base / "shots" / Path(args.shot).name, base / "home"
@@ -165,18 +186,25 @@ def main() -> None:
 
     h, w = image_size(shot_dir / "key0.png")
     print(f"shot {shot_dir.name}, {w}x{h} px, {os.cpu_count()} CPUs; folder {base}")
-    proc = subprocess.Popen([sys.executable, "-m", "editor", str(shot_dir), "--port", "0", "--no-browser"],
-                            env=env_for(home), cwd=ROOT, stdout=subprocess.PIPE, text=True)
-    try:
-        url = re.search(r"http://127\.0\.0\.1:\d+", proc.stdout.readline()).group(0)
-        shot = json.loads(request(url + "/api/shot")[0])
-        if args.only in (None, "repose"):
-            repose_latency(url, shot, args.drags, args.moves)
-        if args.only in (None, "save"):
-            save_to_frames(url, shot_dir, home, args.move)
-    finally:
-        proc.send_signal(signal.SIGINT)
-        proc.wait(30)
+    if args.only in (None, "repose"):
+        proc, url = editor(shot_dir, home, standby=True)
+        try:
+            repose_latency(url, json.loads(request(url + "/api/shot")[0]), args.drags, args.moves)
+        finally:
+            close(proc)
+    if args.only in (None, "save"):
+        times: dict[bool, list[float]] = {True: [], False: []}
+        for _ in range(args.rounds):
+            for standby in (True, False):
+                proc, url = editor(shot_dir, home, standby)
+                try:
+                    time.sleep(args.think)
+                    times[standby].append(save_to_frames(url, shot_dir, home, args.move))
+                finally:
+                    close(proc)
+        for standby, got in times.items():
+            print(f"save -> refreshed frames, {'with' if standby else 'without'} the standby: "
+                  + " ".join(f"{t:.1f}" for t in got) + f" s (median {np.median(got):.1f})")
 
 
 if __name__ == "__main__":

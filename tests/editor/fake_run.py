@@ -1,9 +1,12 @@
 """A stand-in for `inbetween run` in the rerun tests: same progress events, report and error line, no pipeline.
 
-usage: fake_run.py PARTITION OUT_DIR [--sleep S] [--fail] [--stages a,b,c] [--ahead]
+usage: fake_run.py PARTITION OUT_DIR [--sleep S] [--fail] [--stages a,b,c] [--ahead] [--standby]
 
 --ahead plays the work-ahead's order (assets/ahead.py): the last stage starts before the others' steps report
 "done", and reports its progress (done of at most bound blends) as rife_matrix does.
+
+--standby plays assets/standby.py: it prints `ready`, then waits for one line on stdin (a JSON object of
+environment variables) and runs; at the end of input without a line it exits 0 and writes nothing.
 """
 from __future__ import annotations
 
@@ -25,7 +28,14 @@ def main() -> int:
     p.add_argument("--fail", action="store_true")
     p.add_argument("--stages", default=STAGES)
     p.add_argument("--ahead", action="store_true")
+    p.add_argument("--standby", action="store_true")
     args = p.parse_args()
+    if args.standby:
+        print("ready", flush=True)
+        line = sys.stdin.readline()
+        if not line.strip():
+            return 0
+        os.environ.update(json.loads(line))
     progress = os.environ["INBETWEEN_PROGRESS"]
     stages = args.stages.split(",")
 

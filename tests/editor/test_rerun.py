@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -78,3 +79,57 @@ def test_the_running_stage_stays_named_while_earlier_steps_report_and_shows_its_
     assert all(p["done"] <= p["bound"] for p in progress)
     assert st["running_stage"] is None and st["stage_progress"] is None
     assert st["last_seconds"][last] == 0.03 and "key1/refined_masks" not in st["last_seconds"]  # cached: not timed
+
+
+def make_ready(tmp_path, *extra) -> Reruns:
+    """Reruns whose next rerun waits ready as a standby (fake_run.py --standby plays assets/standby.py)."""
+    work = tmp_path / "work"
+    command = fake_command("shot", work / "out", *extra)
+    return Reruns(tmp_path / "shot", "shot", work, tmp_path / "home", tmp_path, command,
+                  standby_command=[*command, "--standby"])
+
+
+def wait_ready(reruns: Reruns, not_pid: int | None = None, timeout: float = 30.0) -> dict:
+    """The standby that waits, once it has said `ready` (one other than not_pid)."""
+    end = time.time() + timeout
+    while time.time() < end:
+        standby = reruns._standby
+        if standby is not None and standby["proc"].pid != not_pid and "ready" in standby["log"].read_text():
+            return standby
+        time.sleep(0.05)
+    raise AssertionError("no standby got ready")
+
+
+def test_a_save_runs_in_the_standby_that_waited_and_the_next_one_gets_ready(tmp_path):
+    reruns = make_ready(tmp_path)
+    reruns.start()
+    standby = wait_ready(reruns)
+    reruns.request("save")
+    st = reruns.wait_idle(30)
+    # its stages reached the editor: the progress file came with the go line
+    assert st["state"] == "done" and set(st["stages"]) == {"key1/refined_masks", "key1/template",
+                                                           "seg0/rife_matrix", "inbetween_frames"}
+    record = json.loads((tmp_path / "work" / "rerun.json").read_text())
+    assert record["pid"] == standby["proc"].pid and record["log"] == str(standby["log"])
+    assert not list((tmp_path / "work").glob("rerun-*.log"))  # no other process ran it
+    following = wait_ready(reruns, not_pid=standby["proc"].pid)
+    reruns.stop()  # the editor goes: the waiting standby ends at the end of its input, having run nothing
+    assert following["proc"].wait(10) == 0
+    assert following["log"].read_text().strip() == "ready"
+
+
+def test_a_standby_whose_code_changed_is_dropped_for_a_fresh_run(tmp_path):
+    code = tmp_path / "ops" / "x.py"
+    code.parent.mkdir()
+    code.write_text("")
+    os.utime(code, (time.time() - 60, time.time() - 60))
+    reruns = make_ready(tmp_path)
+    reruns.start()
+    standby = wait_ready(reruns)
+    os.utime(code, (time.time() + 1, time.time() + 1))  # saved after the standby imported the code
+    reruns.request("save")
+    assert reruns.wait_idle(30)["state"] == "done"
+    record = json.loads((tmp_path / "work" / "rerun.json").read_text())
+    assert record["pid"] != standby["proc"].pid and record["log"] == str(tmp_path / "work" / "rerun-1.log")
+    assert standby["proc"].wait(10) == 0 and standby["log"].read_text().strip() == "ready"  # ran nothing
+    reruns.stop()

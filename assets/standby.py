@@ -1,0 +1,86 @@
+"""A run made ready before it is asked for: the editor's next rerun (editor/rerun.py).
+
+    python -m assets.standby run SHOT --out OUT [the run's other options]
+
+does now what every run does before its first stage can start, while nobody waits: it imports Dagster and the
+stage definitions, starts the worker processes (their fork server imports the ops), builds the Definitions for
+the default settings, opens the Dagster instance and loads the network. Then it prints `ready` and waits for
+one line on stdin: a JSON object of environment variables for the run (the editor's progress file). On that
+line it runs the command exactly as `inbetween run ...` would, its clock starting then, and exits with the
+run's code. At the end of input without a line (the editor closed, or dropped this standby) it exits 0,
+having touched nothing: the shot is read, locked and run only after the line.
+
+Nothing of the shot is read before the line, so a shot saved meanwhile is the one that runs. The code is: it
+was imported when the standby started, and the editor starts a fresh process instead when a source file has
+changed since (`stale`).
+"""
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+READY = "ready"  # printed on stdout once warmed up
+CODE_DIRS = ("assets", "ops", "resources")  # the code a run imports, relative to the repository's root
+
+
+def warm_up() -> None:
+    """Import, start and open everything a run would before its first stage; failures are left to the run."""
+    from ops.settings import Settings
+
+    from . import processes
+    from .run import warnings_to_log
+
+    warnings_to_log()
+    processes.pool()  # the fork server imports the ops meanwhile
+    from . import cli  # noqa: F401  (what the go line runs)
+    from .ahead import Resources  # noqa: F401  (the stages and the work-ahead)
+    from .resource_types import model_resources
+    from .run.session import Session
+
+    session = Session.get(Settings())
+    session.instance  # noqa: B018  (opens it: SQLite's tables, Alembic's check)
+    model_resources()["rife"].load()  # cached per process, as the run's stage will ask for it
+    processes.wait_started()
+
+
+def code_mtime(root: Path) -> float:
+    """The latest modification time (s since the epoch) of the run's Python sources under `root`."""
+    latest = 0.0
+    for d in CODE_DIRS:
+        for path in (root / d).rglob("*.py"):
+            try:
+                latest = max(latest, path.stat().st_mtime)
+            except OSError:  # removed meanwhile: the changed code is what counts, and another file says so
+                continue
+    return latest
+
+
+def stale(root: Path, since: float) -> bool:
+    """Whether a run's source under `root` changed after `since` (s since the epoch): a standby started then
+    would run old code."""
+    return code_mtime(root) > since
+
+
+def main(argv: list[str]) -> int:
+    """Warm up, wait for the go line, run the `inbetween` command `argv`; the exit status."""
+    try:
+        warm_up()
+    except Exception:  # noqa: BLE001  (the run does the same again and reports it in its one line)
+        pass
+    print(READY, flush=True)
+    line = sys.stdin.readline()
+    if not line.strip():
+        return 0
+    os.environ.update({str(k): str(v) for k, v in json.loads(line).items()})
+    from .cli import main as cli_main
+
+    return cli_main(argv)
+
+
+if __name__ == "__main__":
+    code = main(sys.argv[1:])
+    from .run.leave import leave
+
+    leave(code)
