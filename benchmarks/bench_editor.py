@@ -10,7 +10,9 @@
    the rerun panel said while rife_matrix ran (its progress events). Each save comes --think s (default 10: a
    person making the fix) after the editor started or its last rerun ended, and is measured --rounds times
    (default 2) with the rerun made ready ahead (the editor's standby, editor/rerun.py) and without it
-   (INBETWEEN_STANDBY=0), alternately, each in an editor of its own.
+   (INBETWEEN_STANDBY=0), alternately, each in an editor of its own, and after each pair RIFE-direct on the same
+   shot as a new process (ONNX Runtime, as bench_pipeline.py's Ro): the saves are printed as ratios to it too,
+   since machines of this kind differ up to 2.7x per core.
 
     python benchmarks/bench_editor.py [--shot data_samples/arm_cross] [--scale 1.0] [--home DIR] [--only repose|save]
                                       [--move 3] [--think 10] [--rounds 2]
@@ -193,18 +195,29 @@ def main() -> None:
         finally:
             close(proc)
     if args.only in (None, "save"):
+        sys.path.insert(0, str(ROOT))
+        from benchmarks.bench_pipeline import rife_direct
+
         times: dict[bool, list[float]] = {True: [], False: []}
+        ratios: dict[bool, list[float]] = {True: [], False: []}
         for _ in range(args.rounds):
+            pair = {}
             for standby in (True, False):
                 proc, url = editor(shot_dir, home, standby)
                 try:
                     time.sleep(args.think)
-                    times[standby].append(save_to_frames(url, shot_dir, home, args.move))
+                    pair[standby] = save_to_frames(url, shot_dir, home, args.move)
                 finally:
                     close(proc)
-        for standby, got in times.items():
+            ro = rife_direct(shot_dir, base / "rife_direct", base / "rife_home", "onnxruntime")["wall"]
+            print(f"RIFE-direct (ONNX Runtime) on the same shot: {ro:.1f} s")
+            for standby, t in pair.items():
+                times[standby].append(t)
+                ratios[standby].append(t / ro)
+        for standby in (True, False):
             print(f"save -> refreshed frames, {'with' if standby else 'without'} the standby: "
-                  + " ".join(f"{t:.1f}" for t in got) + f" s (median {np.median(got):.1f})")
+                  + " ".join(f"{t:.1f}" for t in times[standby]) + f" s (median {np.median(times[standby]):.1f}); "
+                  + "/ RIFE-direct " + " ".join(f"{r:.2f}" for r in ratios[standby]))
 
 
 if __name__ == "__main__":
