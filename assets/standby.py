@@ -10,8 +10,8 @@ line it runs the command exactly as `inbetween run ...` would, its clock startin
 run's code. At the end of input without a line (the editor closed, or dropped this standby) it exits 0,
 having touched nothing: the shot is read, locked and run only after the line.
 
-Nothing of the shot is read before the line, so a shot saved meanwhile is the one that runs. The code is: it
-was imported when the standby started, and the editor starts a fresh process instead when a source file has
+Nothing of the shot is read before the line, so a shot saved meanwhile is the one that runs. The code that runs
+is the code imported when the standby started: the editor starts a fresh process instead when a source file
 changed since (`stale`).
 """
 from __future__ import annotations
@@ -73,7 +73,13 @@ def main(argv: list[str]) -> int:
     line = sys.stdin.readline()
     if not line.strip():
         return 0
-    os.environ.update({str(k): str(v) for k, v in json.loads(line).items()})
+    try:
+        env = json.loads(line)
+        os.environ.update({str(k): str(v) for k, v in env.items()})
+    except (ValueError, AttributeError):
+        print(f"error: standby: the line on stdin is not a JSON object of environment variables: {line[:80]!r}",
+              file=sys.stderr)
+        return 2
     from .cli import main as cli_main
 
     return cli_main(argv)

@@ -69,3 +69,11 @@ def test_a_standby_told_nothing_exits_untouched(home, small_shot, tmp_path):
     output, _ = proc.communicate("", timeout=300)
     assert proc.returncode == 0 and output.strip() == "ready"
     assert not (tmp_path / "out").exists() and not (home / "storage").exists() and not (home / "shots.json").exists()
+
+
+@pytest.mark.slow  # the standby imports Dagster and the stages before it reads its line
+def test_a_standby_given_a_line_that_is_no_json_object_says_so_and_runs_nothing(home, small_shot, tmp_path):
+    proc = standby(small_shot, tmp_path / "out")
+    output, _ = proc.communicate("[1, 2]\n", timeout=300)
+    assert proc.returncode == 2 and "not a JSON object" in output
+    assert not (tmp_path / "out").exists() and not (home / "storage").exists()
