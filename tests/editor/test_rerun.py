@@ -133,3 +133,20 @@ def test_a_standby_whose_code_changed_is_dropped_for_a_fresh_run(tmp_path):
     assert record["pid"] != standby["proc"].pid and record["log"] == str(tmp_path / "work" / "rerun-1.log")
     assert standby["proc"].wait(10) == 0 and standby["log"].read_text().strip() == "ready"  # ran nothing
     reruns.stop()
+
+
+@pytest.mark.slow  # seconds: a rerun long enough to be superseded
+def test_a_save_while_the_standby_runs_stops_it_and_runs_the_new_save(tmp_path):
+    reruns = make_ready(tmp_path, "--sleep", "1.0")
+    reruns.start()
+    standby = wait_ready(reruns)
+    first = reruns.request("save")
+    end = time.time() + 30
+    while "key1/refined_masks" not in reruns.snapshot()[1]["running"] and time.time() < end:
+        time.sleep(0.05)  # the standby runs the first save
+    second = reruns.request("save again")
+    assert standby["proc"].wait(15) != 0  # stopped: its process group killed
+    st = reruns.wait_idle(60)
+    assert st["state"] == "done" and st["seq"] == second == first + 1 and st["reason"] == "save again"
+    assert json.loads((tmp_path / "work" / "rerun.json").read_text())["pid"] != standby["proc"].pid
+    reruns.stop()
