@@ -11,8 +11,8 @@ run's code. At the end of input without a line (the editor closed, or dropped th
 having touched nothing: the shot is read, locked and run only after the line.
 
 Nothing of the shot is read before the line, so a shot saved meanwhile is the one that runs. The code that runs
-is the code imported when the standby started: the editor starts a fresh process instead when a source file
-changed since (`stale`).
+is the code imported when the standby started: the editor starts a fresh process instead when the project's
+sources changed since (`stale`, by codeversion.project_fingerprint, as the plan tells stale code records).
 """
 from __future__ import annotations
 
@@ -21,8 +21,9 @@ import os
 import sys
 from pathlib import Path
 
+from .codeversion import project_fingerprint
+
 READY = "ready"  # printed on stdout once warmed up
-CODE_DIRS = ("assets", "ops", "resources")  # the code a run imports, relative to the repository's root
 
 
 def warm_up() -> None:
@@ -34,8 +35,7 @@ def warm_up() -> None:
 
     warnings_to_log()
     processes.pool()  # the fork server imports the ops meanwhile
-    from . import cli  # noqa: F401  (what the go line runs)
-    from .ahead import Resources  # noqa: F401  (the stages and the work-ahead)
+    from . import ahead, cli  # noqa: F401  (the stages and the work-ahead; what the go line runs)
     from .resource_types import model_resources
     from .run.session import Session
 
@@ -45,22 +45,10 @@ def warm_up() -> None:
     processes.wait_started()
 
 
-def code_mtime(root: Path) -> float:
-    """The latest modification time (s since the epoch) of the run's Python sources under `root`."""
-    latest = 0.0
-    for d in CODE_DIRS:
-        for path in (root / d).rglob("*.py"):
-            try:
-                latest = max(latest, path.stat().st_mtime)
-            except OSError:  # removed meanwhile: the changed code is what counts, and another file says so
-                continue
-    return latest
-
-
-def stale(root: Path, since: float) -> bool:
-    """Whether a run's source under `root` changed after `since` (s since the epoch): a standby started then
-    would run old code."""
-    return code_mtime(root) > since
+def stale(root: Path, fingerprint: str) -> bool:
+    """Whether the project's sources under `root` differ from those whose project_fingerprint was `fingerprint`
+    (taken before a standby started): that standby would run old code."""
+    return project_fingerprint(root) != fingerprint
 
 
 def main(argv: list[str]) -> int:

@@ -131,10 +131,12 @@ def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> float:
     total = time.perf_counter() - t0
     ran = {n: s["seconds"] for n, s in status["stages"].items() if not s["cached"]}
     log = json.loads((home / "editor" / partition / "rerun.json").read_text()).get("log", "")
-    how = "in the standby" if Path(log).name.startswith("standby-") else "in a new process"
-    print(f"save -> refreshed frames after moving a key1 T-junction by {move:g} px, run {how}: {total:.1f} s "
+    standby = Path(log).name.startswith("standby-")  # the editor's standby ran it (editor/rerun.py)
+    print(f"save -> refreshed frames after moving a key1 T-junction by {move:g} px, run "
+          f"{'in the standby' if standby else 'in a new process'}: {total:.1f} s "
           f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s; "
-          f"CPU of the rerun process >= {cpu or 0:.1f} s{' (its warm-up included)' if 'standby' in how else ''}; load average {os.getloadavg()[0]:.1f} at the end)")
+          f"CPU of the rerun process >= {cpu or 0:.1f} s{' (its warm-up included)' if standby else ''}; "
+          f"load average {os.getloadavg()[0]:.1f} at the end)")
     rife = [s for s in said if s.startswith("rife_matrix")]
     if rife:
         print(f"  while rife_matrix ran the panel named it with {len(rife)} different progress states: "

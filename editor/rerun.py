@@ -30,6 +30,7 @@ import threading
 import time
 from pathlib import Path
 
+from assets.codeversion import project_fingerprint
 from assets.standby import stale
 
 STATES = ("idle", "running", "done", "failed")
@@ -80,7 +81,7 @@ class Reruns:
         if standby_command is None and command is None and os.environ.get(STANDBY_SWITCH, "1") != "0":
             standby_command = [sys.executable, "-m", "assets.standby", *self.command[3:]]
         self.standby_command = standby_command
-        self._standby: dict | None = None  # {"proc", "log", "since"} of the standby process, if one waits
+        self._standby: dict | None = None  # {"proc", "log", "code"} of the standby process, if one waits
         self._standbys = itertools.count(1)
         self._cond = threading.Condition()
         # running_stage: the stage started last of those still running (several run at once: two lanes, and
@@ -190,7 +191,7 @@ class Reruns:
             return
         self.workdir.mkdir(parents=True, exist_ok=True)
         log = self.workdir / f"standby-{next(self._standbys)}.log"
-        since = time.time()  # before its imports: a source saved while it imports makes it stale
+        code = project_fingerprint(self.cwd)  # before its imports: a source saved while it imports makes it stale
         env = {k: v for k, v in self._env().items() if k != "INBETWEEN_PROGRESS"}
         with open(log, "wb") as logf:
             proc = subprocess.Popen(self.standby_command, stdout=logf, stderr=subprocess.STDOUT, stdin=subprocess.PIPE,
@@ -199,7 +200,7 @@ class Reruns:
             if self._stop:
                 _release(proc)
             else:
-                self._standby = {"proc": proc, "log": log, "since": since}
+                self._standby = {"proc": proc, "log": log, "code": code}
 
     def _take_standby(self, progress: Path) -> tuple[subprocess.Popen, Path] | None:
         """The waiting standby, told to run now and report to `progress`; None when there is none that can."""
@@ -208,7 +209,7 @@ class Reruns:
         if standby is None:
             return None
         proc = standby["proc"]
-        if proc.poll() is not None or stale(self.cwd, standby["since"]):
+        if proc.poll() is not None or stale(self.cwd, standby["code"]):
             _release(proc)
             return None
         try:

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from assets.cli import main
+from assets.codeversion import project_fingerprint
 from assets.standby import stale
 
 from .conftest import frames_of
@@ -37,15 +38,15 @@ def wait_ready(proc: subprocess.Popen) -> None:
     raise AssertionError("no ready line")
 
 
-def test_stale_when_a_source_is_newer_than_the_standby(tmp_path):
+def test_stale_when_a_source_changed_since_the_standby(tmp_path):
     source = tmp_path / "assets" / "run" / "x.py"
     source.parent.mkdir(parents=True)
     source.write_text("")
+    then = project_fingerprint(tmp_path)
     (tmp_path / "data.json").write_text("{}")  # not code: never makes it stale
-    then = time.time()
-    os.utime(source, (then - 10, then - 10))
+    os.utime(source, (time.time() + 10, time.time() + 10))  # touched, not changed
     assert not stale(tmp_path, then)
-    os.utime(source, (then + 1, then + 1))
+    source.write_text("x = 1\n")
     assert stale(tmp_path, then)
 
 
