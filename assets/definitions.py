@@ -11,7 +11,9 @@ docs/production.md).
 """
 from __future__ import annotations
 
+import functools
 import logging
+from collections.abc import Collection
 from importlib.util import find_spec
 from pathlib import Path
 
@@ -66,12 +68,38 @@ def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:
     return source_versions(shots.load(partition))
 
 
-SOURCE_ASSETS = source_assets(_versions)
 # every stage any shot can have: a lane per key, each segment's two sides and its blending (assets/stages.py)
-SHOT_ASSETS = [stage_asset(d) for d in SHOT_STAGES]
-STAGE_ASSETS = [*SHOT_ASSETS, *(stage_asset(d) for d in EVALUATION_STAGES)]
-ALL_ASSETS = [*SOURCE_ASSETS, *STAGE_ASSETS]
-SHOT_SELECTION = dg.AssetSelection.assets(*(k for a in SHOT_ASSETS for k in a.keys))
+SHOT_SELECTION = dg.AssetSelection.assets(*(asset_key(d.name) for d in SHOT_STAGES))
+
+
+@functools.cache
+def _sources() -> dict[str, dg.SourceAsset]:
+    """Every source any shot can have, as an observable source asset, by name."""
+    return {"/".join(a.key.path): a for a in source_assets(_versions)}
+
+
+@functools.cache
+def _stage_assets() -> dict[str, dg.AssetsDefinition]:
+    """Every stage's asset (the shots' and the evaluation group's), by name, made on first use."""
+    return {d.name: stage_asset(d) for d in (*SHOT_STAGES, *EVALUATION_STAGES)}
+
+
+def __getattr__(name: str):
+    """The UI's Definitions (`defs`: every stage of every shot size, 172 assets) and their asset lists, made on
+    first use: a run builds only its shot's (`shot_definitions`)."""
+    if name == "defs":
+        globals()["defs"] = value = build_definitions()
+        return value
+    if name == "SOURCE_ASSETS":
+        return list(_sources().values())
+    if name == "SHOT_ASSETS":
+        return [_stage_assets()[d.name] for d in SHOT_STAGES]
+    if name == "STAGE_ASSETS":
+        return list(_stage_assets().values())
+    if name == "ALL_ASSETS":
+        return [*_sources().values(), *_stage_assets().values()]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 # the jobs' partitions come from their assets (the shots' dynamic partitions)
 # observing a shot's sources hashes a few files: in one process (the default multiprocess executor would start an
@@ -116,27 +144,26 @@ def file_logger(init_context: dg.InitLoggerContext) -> logging.Logger:
     return log
 
 
+LOGGERS = {"console": dg.colored_console_logger, "file": file_logger}
+
+
 def build_definitions(settings: Settings | None = None) -> dg.Definitions:
-    return dg.Definitions(assets=ALL_ASSETS, jobs=[observe_job, shot_job, evaluation_job, *farm_jobs()],
-                          sensors=[shot_directories],
-                          resources=build_resources(settings),
-                          loggers={"console": dg.colored_console_logger, "file": file_logger})
+    """Everything: the assets of every stage of every shot size, the jobs, the sensor (the UI's, the farm's)."""
+    return dg.Definitions(assets=[*_sources().values(), *_stage_assets().values()],
+                          jobs=[observe_job, shot_job, evaluation_job, *farm_jobs()],
+                          sensors=[shot_directories], resources=build_resources(settings), loggers=LOGGERS)
 
 
-def current_place() -> tuple[str, str]:
-    """(home, shots root) of this process now: where Definitions built now would read and write."""
-    return str(home()), str(shots_root())
-
-
-_BUILT_FOR = current_place()
-defs = build_definitions()
-
-
-def built_for() -> tuple[str, str]:
-    """(home, shots root) that the module's `defs` were built for."""
-    return _BUILT_FOR
+def shot_definitions(stages: Collection[str], sources: Collection[str],
+                     settings: Settings | None = None) -> dg.Definitions:
+    """The assets of `stages` and `sources` alone (a shot's graph, assets.graph.ShotGraph), with the resources
+    and loggers of `build_definitions`: what one run of an in-process executor needs. Its asset keys, code
+    versions and lineage are the full Definitions' (a stage's parents in a shot of another size stay outside,
+    as external assets), so what it records is what the UI reads."""
+    return dg.Definitions(assets=[*(_sources()[n] for n in sources), *(_stage_assets()[n] for n in stages)],
+                          resources=build_resources(settings), loggers=LOGGERS)
 
 
 def farm_job() -> dg.JobDefinition:
     """The farm job, for `dg.reconstructable`: a Celery worker rebuilds it by importing this module."""
-    return defs.resolve_job_def(FARM_JOB)
+    return __getattr__("defs").resolve_job_def(FARM_JOB)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from .codeversion import project_fingerprint
@@ -26,8 +27,9 @@ from .codeversion import project_fingerprint
 READY = "ready"  # printed on stdout once warmed up
 
 
-def warm_up() -> None:
-    """Import, start and open everything a run would before its first stage; failures are left to the run."""
+def warm_up(argv: Sequence[str] = ()) -> None:
+    """Import, start and open everything a run of `argv` (`run SHOT ...`) would before its first stage; failures
+    are left to the run."""
     from ops.settings import Settings
 
     from . import processes
@@ -41,6 +43,12 @@ def warm_up() -> None:
 
     session = Session.get(Settings())
     session.instance  # noqa: B018  (opens it: SQLite's tables, Alembic's check)
+    if len(argv) > 1 and argv[0] == "run":  # the shot's asset job, for the keys it has now
+        from ops.shotio.load import load_shot
+
+        from .graph import shot_graph
+
+        session.job(shot_graph(load_shot(argv[1]).n_keys))
     model_resources()["rife"].load()  # cached per process, as the run's stage will ask for it
     processes.wait_started()
 
@@ -54,7 +62,7 @@ def stale(root: Path, fingerprint: str) -> bool:
 def main(argv: list[str]) -> int:
     """Warm up, wait for the go line, run the `inbetween` command `argv`; the exit status."""
     try:
-        warm_up()
+        warm_up(argv)
     except Exception:  # noqa: BLE001  (the run does the same again and reports it in its one line)
         pass
     print(READY, flush=True)

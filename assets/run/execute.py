@@ -75,7 +75,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
         code_records()  # cached for the next plan, which needs them (this one may not have: a new home's first run)
         session.ensure_partition(p.partition)
         session.observe(p.partition, p.unobserved)  # what the instance observed before stays its latest
-        session.materialize(p.shot.root, p.partition, names, log_path(p.partition), verbose)
+        session.materialize(p.shot.root, p.partition, p.graph, names, log_path(p.partition), verbose)
         if outputs is not None:
             for n in outputs.keys() & ahead.memory.keys():
                 outputs[n] = (ahead.outcomes[n].version, ahead.memory[n])

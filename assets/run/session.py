@@ -12,6 +12,7 @@ from pathlib import Path
 
 from ops.settings import Settings
 
+from ..graph import ShotGraph
 from ..home import ensure_home, home, instance_id
 from .errors import HomeDamaged, raise_failure
 from .logs import quiet_dagster_warnings
@@ -64,17 +65,26 @@ class Session:
         quiet_dagster_warnings()
         import dagster as dg
 
-        from .. import definitions
+        from ..definitions import build_resources
 
         self.dg = dg
         self.settings = settings
-        # the module's Definitions (the UI's) serve the default settings while the home and shots root they were
-        # built for are still this process's (a test, the editor, may change them): built once per process
-        self.defs = (definitions.defs if settings == Settings() and definitions.built_for() == definitions.current_place()
-                     else definitions.build_definitions(settings))
-        self.resources = dict(self.defs.resources)
-        self.job = self.defs.resolve_implicit_global_asset_job_def()
+        self.resources = build_resources(settings)  # the stages' resources, as every Definitions here binds them
+        self._jobs: dict[ShotGraph, object] = {}
         self._instance = None
+
+    def job(self, graph: ShotGraph):
+        """The asset job of a shot's graph (its stages, its evaluation group's and its sources), built once.
+
+        A run builds only its own shot's assets: the UI's Definitions hold every stage of every shot size (172
+        assets), which took a second of this process's main thread from the stages' cores (docs/performance.md).
+        """
+        if graph not in self._jobs:
+            from ..definitions import shot_definitions
+
+            defs = shot_definitions(graph.all_stages, graph.sources, self.settings)
+            self._jobs[graph] = defs.resolve_implicit_global_asset_job_def()
+        return self._jobs[graph]
 
     @property
     def instance(self):
@@ -104,14 +114,16 @@ class Session:
             self.instance.report_runless_asset_event(self.dg.AssetObservation(
                 asset_key=asset_key(name), partition=partition, tags={"dagster/data_version": version}))
 
-    def materialize(self, shot: str, partition: str, names: list[str], log_path: Path, verbose: bool = False):
-        """Run the named stages of one partition in one in-process execution; StageFailed if a stage raises."""
+    def materialize(self, shot: str, partition: str, graph: ShotGraph, names: list[str], log_path: Path,
+                    verbose: bool = False):
+        """Run the named stages of one partition (stages of `graph`) in one in-process execution; StageFailed if a
+        stage raises."""
         from ..stage import asset_key
 
         run_config = {"loggers": {"file": {"config": {"path": str(log_path)}},
                                   "console": {"config": {"log_level": "DEBUG" if verbose else "CRITICAL"}}}}
         with partitions_known(self.instance):
-            result = self.job.execute_in_process(
+            result = self.job(graph).execute_in_process(
                 instance=self.instance, partition_key=partition, asset_selection=[asset_key(n) for n in names],
                 run_config=run_config, raise_on_error=False, tags={"inbetween/shot": partition})
         if not result.success:
