@@ -103,6 +103,16 @@ def assign_junctions(points: np.ndarray, regions: list[np.ndarray], front_bones:
     pts, warnings = merge_clicks(points)
     regions, front_bones = [np.asarray(r, bool).copy() for r in regions], list(front_bones)
     per_region: list[list] = [[] for _ in regions]
+    fields: dict[int, np.ndarray] = {}  # region -> its boundary_distance, until the region changes
+
+    def distance(i: int, r: int, c: int) -> float:
+        """Pixels from (row r, column c) to region i's boundary; inf for an empty region."""
+        if not regions[i].any():
+            return np.inf
+        if i not in fields:  # one distance transform per region, not one per click (cost linear in the clicks)
+            fields[i] = boundary_distance(regions[i])
+        return float(fields[i][r, c])
+
     snapped, moved = snap_into(foreground, pts) if len(pts) else (pts, np.zeros(0, bool))
     for i, (q, orig) in enumerate(zip(snapped, pts)):
         x, y = orig
@@ -114,13 +124,14 @@ def assign_junctions(points: np.ndarray, regions: list[np.ndarray], front_bones:
         if moved[i] and shift > 0:
             warnings.append(about("T-junction", f"was {shift:.1f} px outside the drawing; moved onto it", at=(x, y)))
         c, r = int(round(q[0])), int(round(q[1]))
-        dist = [boundary_distance(m)[r, c] if m.any() else np.inf for m in regions]
+        dist = [distance(i, r, c) for i in range(len(regions))]
         owner = int(np.argmin(dist)) if regions else -1
         if owner >= 0 and dist[owner] > tol and regions[owner][r, c]:
             warnings.append(about("T-junction", f"lies {dist[owner]:.1f} px inside occlusion region {owner}; "
                                   "its boundary is moved through it", at=(x, y)))
         elif owner >= 0 and dist[owner] > tol:
             regions[owner] = grow_to(regions[owner], q, foreground)
+            fields.pop(owner, None)
             warnings.append(about("T-junction", f"was {dist[owner]:.1f} px from every occlusion region; "
                                   f"region {owner} grown to meet it", at=(x, y)))
         elif owner < 0:
