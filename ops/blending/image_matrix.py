@@ -140,7 +140,8 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
         computed[rows] = done
 
     # chunks of rows are independent: a runtime that is faster with several calls at once (ONNX Runtime on the
-    # CPU: OnnxRife.concurrency) fills them on that many threads
+    # CPU: OnnxRife.concurrency) fills them on that many threads; the chunks left over once the others are
+    # paired (the ninth of nine level-1 calls on two threads) run after them on all the threads, not on a share
     at_once = min(rife.concurrency() if hasattr(rife, "concurrency") else 1, -(-t_count // batch))
     pool = ThreadPoolExecutor(at_once, thread_name_prefix="inbetween-matrix") if at_once > 1 else None
     try:
@@ -151,10 +152,17 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
             if pool is None:
                 for t0 in chunks:
                     fill(t0, phase)
-            else:
-                with rife.calls_at_once(at_once):
-                    for _ in pool.map(fill, chunks, [phase] * len(chunks)):  # re-raises a chunk's error
-                        pass
+                continue
+            work = need & ~computed
+            work[:, [0, -1]] = False
+            busy = [t0 for t0 in chunks if work[t0:t0 + batch].any()]
+            paired = busy[:len(busy) - len(busy) % at_once]
+            with rife.calls_at_once(at_once):
+                for _ in pool.map(fill, paired, [phase] * len(paired)):  # re-raises a chunk's error
+                    pass
+            for t0 in chunks:
+                if t0 not in paired:
+                    fill(t0, phase)
     finally:
         if pool is not None:
             pool.shutdown()
