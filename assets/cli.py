@@ -91,6 +91,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True)
     output_flags(p)
     method_flags(p)
+    wa = sub.add_parser("watch", help="run a shot, then rerun it each time its files are saved (Ctrl-C stops)")
+    wa.add_argument("shot_dir")
+    wa.add_argument("--out", required=True)
+    output_flags(wa)
+    method_flags(wa)
     b = sub.add_parser("batch", help="every shot under a root, in parallel")
     b.add_argument("shots_root")
     b.add_argument("--out", required=True)
@@ -206,6 +211,16 @@ def _run(args) -> int:
     print(f"{report['frames']} frames -> {Path(args.out) / 'frames'}  "
           f"({len(ran)} stages executed, {report['seconds_total']:.1f} s)")
     return 0
+
+
+def _watch(args) -> int:
+    from .run.watch import watch
+
+    # the reruns take `inbetween run`'s flags as given here: everything after SHOT_DIR and --out OUT
+    options = [f"--export={','.join(args.export)}", f"--fps={args.fps}", f"--blend={args.blend}",
+               f"--template={args.template}", f"--occlusion={args.occlusion}", f"--lanes={args.lanes}",
+               f"--cuts={args.cuts}", *(["--debug"] if args.debug else [])]
+    return watch(args.shot_dir, args.out, options, lambda line: print(line, flush=True))
 
 
 def _farm_ready(args) -> bool:
@@ -395,7 +410,7 @@ def _motion(args) -> int:
     return 0
 
 
-COMMANDS = {"run": _run, "batch": _batch, "status": _status, "masks": _masks, "junctions": _junctions, "eval": _eval,
+COMMANDS = {"run": _run, "watch": _watch, "batch": _batch, "status": _status, "masks": _masks, "junctions": _junctions, "eval": _eval,
             "ui": _ui, "edit": _edit, "worker": _worker, "new": _new, "motion": _motion}
 
 

@@ -1,18 +1,20 @@
-"""A run made ready before it is asked for: the editor's next rerun (editor/rerun.py).
+"""A run made ready before it is asked for: the next rerun of the editor or `inbetween watch`
+(assets/run/reruns.py).
 
     python -m assets.standby run SHOT --out OUT [the run's other options]
 
 does now what every run does before its first stage can start, while nobody waits: it imports Dagster and the
-stage definitions, starts the worker processes (their fork server imports the ops), builds the Definitions for
-the default settings, opens the Dagster instance and loads the network. Then it prints `ready` and waits for
-one line on stdin: a JSON object of environment variables for the run (the editor's progress file). On that
-line it runs the command exactly as `inbetween run ...` would, its clock starting then, and exits with the
-run's code. At the end of input without a line (the editor closed, or dropped this standby) it exits 0,
-having touched nothing: the shot is read, locked and run only after the line.
+stage definitions, starts the worker processes (their fork server imports the ops), opens the Dagster
+instance, loads the network and builds the shot's asset job. Then it prints `ready` and waits for one line on
+stdin: a JSON object of environment variables for the run (a progress file). On that line it runs the command
+exactly as `inbetween run ...` would, its clock starting then, and exits with the run's code. At the end of
+input without a line (the front end closed, or dropped this standby) it exits 0, having written and locked
+nothing: of the shot only its number of keys was read (for its asset job), so a shot saved meanwhile is the
+one that runs.
 
-Nothing of the shot is read before the line, so a shot saved meanwhile is the one that runs. The code that runs
-is the code imported when the standby started: the editor starts a fresh process instead when the project's
-sources changed since (`stale`, by codeversion.project_fingerprint, as the plan tells stale code records).
+The code that runs is the code imported when the standby started: its front end (the editor,
+`inbetween watch`) starts a fresh process instead when the project's sources changed since
+(`assets.run.reruns.stale`, by codeversion.project_fingerprint, as the plan tells stale code records).
 """
 from __future__ import annotations
 
@@ -20,9 +22,6 @@ import json
 import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
-
-from .codeversion import project_fingerprint
 
 READY = "ready"  # printed on stdout once warmed up
 
@@ -43,20 +42,17 @@ def warm_up(argv: Sequence[str] = ()) -> None:
 
     session = Session.get(Settings())
     session.instance  # noqa: B018  (opens it: SQLite's tables, Alembic's check)
-    if len(argv) > 1 and argv[0] == "run":  # the shot's asset job, for the keys it has now
-        from ops.shotio.load import load_shot
-
-        from .graph import shot_graph
-
-        session.job(shot_graph(load_shot(argv[1]).n_keys))
     model_resources()["rife"].load()  # cached per process, as the run's stage will ask for it
     processes.wait_started()
+    if len(argv) > 1 and argv[0] == "run":  # the shot's asset job, for the number of keys it has now
+        try:
+            from ops.shotio.load import load_shot
 
+            from .graph import shot_graph
 
-def stale(root: Path, fingerprint: str) -> bool:
-    """Whether the project's sources under `root` differ from those whose project_fingerprint was `fingerprint`
-    (taken before a standby started): that standby would run old code."""
-    return project_fingerprint(root) != fingerprint
+            session.job(shot_graph(load_shot(argv[1]).n_keys))
+        except Exception:  # noqa: BLE001  (a shot bad now may be saved good before the line: the run tells)
+            pass
 
 
 def main(argv: list[str]) -> int:

@@ -9,13 +9,19 @@
    the CPU seconds of the rerun process (and its children), which a loaded machine does not stretch, and what
    the rerun panel said while rife_matrix ran (its progress events). Each save comes --think s (default 10: a
    person making the fix) after the editor started or its last rerun ended, and is measured --rounds times
-   (default 2) with the rerun made ready ahead (the editor's standby, editor/rerun.py) and without it
+   (default 2) with the rerun made ready ahead (the editor's standby, assets/run/reruns.py) and without it
    (INBETWEEN_STANDBY=0), alternately, each in an editor of its own, and after each pair RIFE-direct on the same
    shot as a new process (ONNX Runtime, as bench_pipeline.py's Ro): the saves are printed as ratios to it too,
    since machines of this kind differ up to 2.7x per core.
 
-    python benchmarks/bench_editor.py [--shot data_samples/arm_cross] [--scale 1.0] [--home DIR] [--only repose|save]
+    python benchmarks/bench_editor.py [--shot data_samples/arm_cross] [--scale 1.0] [--home DIR]
+                                      [--only repose|save|watch]
                                       [--move 3] [--think 10] [--rounds 2]
+
+3. the same edit saved outside the editor (`--only watch`): shot.json written while `inbetween watch` follows the
+   shot, to its `saved: done` line (its reruns are the editor's, standby included), against `inbetween run` as a
+   new process after the same edit, alternately, each --think s after the watch started or the last run ended,
+   and RIFE-direct after each pair.
 
 The shot is copied into a temporary folder and run cold once (printed too), so its templates are cached;
 the editor is then started as `python -m editor SHOT --port 0 --no-browser` in its own process, the way
@@ -131,7 +137,7 @@ def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> float:
     total = time.perf_counter() - t0
     ran = {n: s["seconds"] for n, s in status["stages"].items() if not s["cached"]}
     log = json.loads((home / "editor" / partition / "rerun.json").read_text()).get("log", "")
-    standby = Path(log).name.startswith("standby-")  # the editor's standby ran it (editor/rerun.py)
+    standby = Path(log).name.startswith("standby-")  # the editor's standby ran it (assets/run/reruns.py)
     print(f"save -> refreshed frames after moving a key1 T-junction by {move:g} px, run "
           f"{'in the standby' if standby else 'in a new process'}: {total:.1f} s "
           f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s; "
@@ -144,6 +150,48 @@ def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> float:
     print(f"  stages re-run: {len(ran)} of {len(status['stages'])}, stage seconds {sum(ran.values()):.1f}: "
           + ", ".join(f"{n} {s:.2f}" for n, s in ran.items()))
     return total
+
+
+def move_junction(shot_dir: Path, move: float) -> None:
+    """Move key1's first T-junction `move` px right in shot.json (written in one call, as an editor saves)."""
+    data = json.loads((shot_dir / "shot.json").read_text())
+    x, y = data["t_junctions"][1][0]
+    data["t_junctions"][1][0] = [x + move, y]
+    (shot_dir / "shot.json").write_text(json.dumps(data, indent=1))
+
+
+def watch_to_frames(shot_dir: Path, home: Path, out: Path, move: float, think: float) -> float:
+    """Seconds from a T-junction edit saved to shot.json to `inbetween watch`'s `saved: done` line."""
+    proc = subprocess.Popen([sys.executable, "-m", "assets.cli", "watch", str(shot_dir), "--out", str(out)],
+                            env={**env_for(home), "PYTHONUNBUFFERED": "1"}, cwd=ROOT, stdout=subprocess.PIPE,
+                            text=True)
+    try:
+        for line in proc.stdout:  # its first run: every stage fresh but the outputs written
+            if line.startswith("start: "):
+                break
+        time.sleep(think)
+        move_junction(shot_dir, move)
+        t0 = time.perf_counter()
+        for line in proc.stdout:
+            if line.startswith("saved: "):
+                took = time.perf_counter() - t0
+                if not line.startswith("saved: done"):
+                    raise RuntimeError(line.strip())
+                return took
+        raise RuntimeError("inbetween watch ended before the rerun did")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(60)
+
+
+def run_to_frames(shot_dir: Path, home: Path, out: Path, move: float, think: float) -> float:
+    """Seconds of `inbetween run` as a new process after the same edit, --think s after the last run."""
+    time.sleep(think)
+    move_junction(shot_dir, move)
+    t0 = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "assets.cli", "run", str(shot_dir), "--out", str(out)], env=env_for(home),
+                   cwd=ROOT, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - t0
 
 
 def editor(shot_dir: Path, home: Path, standby: bool) -> tuple[subprocess.Popen, str]:
@@ -167,7 +215,7 @@ def main() -> None:
     ap.add_argument("--home", default=None, help="reuse this benchmark's folder from an earlier run")
     ap.add_argument("--drags", type=int, default=10)
     ap.add_argument("--moves", type=int, default=10)
-    ap.add_argument("--only", choices=["repose", "save"], default=None)
+    ap.add_argument("--only", choices=["repose", "save", "watch"], default=None)
     ap.add_argument("--move", type=float, default=3.0, help="px the key1 T-junction moves before the save")
     ap.add_argument("--think", type=float, default=10.0, help="s from the editor's start to the save")
     ap.add_argument("--rounds", type=int, default=2, help="saves with the standby and without it, alternately")
@@ -220,6 +268,22 @@ def main() -> None:
             print(f"save -> refreshed frames, {'with' if standby else 'without'} the standby: "
                   + " ".join(f"{t:.1f}" for t in times[standby]) + f" s (median {np.median(times[standby]):.1f}); "
                   + "/ RIFE-direct " + " ".join(f"{r:.2f}" for r in ratios[standby]))
+
+    if args.only in (None, "watch"):
+        sys.path.insert(0, str(ROOT))
+        from benchmarks.bench_pipeline import rife_direct
+
+        kinds = {"inbetween watch": watch_to_frames, "inbetween run": run_to_frames}
+        got: dict[str, list[tuple[float, float]]] = {k: [] for k in kinds}
+        for _ in range(args.rounds):
+            pair = {kind: fn(shot_dir, home, base / "out", args.move, args.think) for kind, fn in kinds.items()}
+            ro = rife_direct(shot_dir, base / "rife_direct", base / "rife_home", "onnxruntime")["wall"]
+            print(f"RIFE-direct (ONNX Runtime) on the same shot: {ro:.1f} s")
+            for kind, t in pair.items():
+                got[kind].append((t, t / ro))
+        for kind, runs in got.items():
+            print(f"edit saved -> frames, {kind}: " + " ".join(f"{t:.1f}" for t, _ in runs) + " s; / RIFE-direct "
+                  + " ".join(f"{r:.2f}" for _, r in runs))
 
 
 if __name__ == "__main__":

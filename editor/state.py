@@ -8,6 +8,7 @@ from pathlib import Path
 from assets.codeversion import ROOT
 from assets.home import ensure_home, home
 from assets.run import register, store
+from assets.run.reruns import Reruns
 from ops.errors import ShotError
 from ops.settings import Settings
 from ops.shotio.load import read_shot_json
@@ -17,7 +18,6 @@ from .layers import Predictions
 from .maskfiles import Staging
 from .proposals import Proposals
 from .repose import Reposers
-from .rerun import Reruns
 from .results import Results
 
 

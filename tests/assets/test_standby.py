@@ -14,7 +14,7 @@ import pytest
 
 from assets.cli import main
 from assets.codeversion import project_fingerprint
-from assets.standby import stale
+from assets.run.reruns import stale
 
 from .conftest import frames_of
 

@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from editor.rerun import Reruns, error_line
+from assets.run.reruns import Reruns, error_line
 
 from .conftest import fake_command
 

@@ -1,13 +1,14 @@
-"""Incremental reruns of the edited shot in the background, followed stage by stage.
+"""Incremental reruns of an edited shot in the background, followed stage by stage: the editor's, and those of
+`inbetween watch` (assets/run/watch.py).
 
-A rerun is `python -m assets.cli run SHOT --out OUT` in a subprocess, so the server stays responsive and
+A rerun is `python -m assets.cli run SHOT --out OUT` in a subprocess, so the front end stays responsive and
 always runs the code on disk. While nothing runs, the next rerun waits ready as a *standby*
 (assets/standby.py): a process that has already imported Dagster and the stages, started the worker
 processes, opened the instance and loaded the network, and runs the shot as saved when a rerun is asked for
 (a key1 T-junction edit of arm_cross: Save to frames a fifth to a quarter shorter). A standby whose code
 changed on disk since it started is dropped for a fresh process. The subprocess appends every stage event to
-a progress file (INBETWEEN_PROGRESS, assets/progress.py), which this module tails into the status the page
-shows.
+a progress file (INBETWEEN_PROGRESS, assets/progress.py), which this module tails into the status the front
+end shows.
 
 One rerun at a time. A rerun asked for while one runs *supersedes* it: the running one is stopped at once
 and the new one starts. Nothing is lost: every stage output is written atomically with its provenance, so
@@ -30,14 +31,19 @@ import threading
 import time
 from pathlib import Path
 
-from assets.codeversion import project_fingerprint
-from assets.standby import stale
+from ..codeversion import project_fingerprint
 
 STATES = ("idle", "running", "done", "failed")
 POLL_S = 0.2
 KILL_GRACE_S = 5.0
 RELEASE_S = 60.0  # a dropped standby still there after this long is killed
 STANDBY_SWITCH = "INBETWEEN_STANDBY"  # "0": no standby (each rerun a fresh process; it holds ~0.5 GB while it waits)
+
+
+def stale(root: Path, fingerprint: str) -> bool:
+    """Whether the project's sources under `root` differ from those whose project_fingerprint was `fingerprint`
+    (taken before a standby started): that standby would run old code."""
+    return project_fingerprint(root) != fingerprint
 
 
 def _alive(pid: int, marker: str) -> bool:
@@ -71,12 +77,14 @@ class Reruns:
     """The rerun of one shot: request, status, follow. Thread-safe; one worker thread owns the subprocess."""
 
     def __init__(self, shot_dir: Path, partition: str, workdir: Path, home: Path, cwd: Path,
-                 command: list[str] | None = None, standby_command: list[str] | None = None):
-        """command: what runs the shot (default `python -m assets.cli run SHOT --out WORKDIR/out`); standby_command:
-        the same made ready ahead (default with the default command: `python -m assets.standby run ...`; none
-        with a command of the caller's unless given)."""
+                 command: list[str] | None = None, standby_command: list[str] | None = None,
+                 out_dir: Path | None = None):
+        """command: what runs the shot (default `python -m assets.cli run SHOT --out OUT`); standby_command: the
+        same made ready ahead (default with the default command: `python -m assets.standby run ...`; none with a
+        command of the caller's unless given); out_dir: the OUT the command writes (default WORKDIR/out)."""
         self.shot_dir, self.partition, self.workdir = Path(shot_dir), partition, Path(workdir)
-        self.out_dir, self.home, self.cwd = self.workdir / "out", Path(home), Path(cwd)
+        self.out_dir = Path(out_dir) if out_dir is not None else self.workdir / "out"
+        self.home, self.cwd = Path(home), Path(cwd)
         self.command = command or [sys.executable, "-m", "assets.cli", "run", str(self.shot_dir), "--out", str(self.out_dir)]
         if standby_command is None and command is None and os.environ.get(STANDBY_SWITCH, "1") != "0":
             standby_command = [sys.executable, "-m", "assets.standby", *self.command[3:]]
@@ -104,14 +112,18 @@ class Reruns:
     def start(self) -> None:
         self._thread.start()
 
-    def stop(self) -> None:
-        """Stop following (the server shuts down); a running rerun finishes on its own and the next editor follows it."""
+    def stop(self, cancel: bool = False) -> None:
+        """Stop following (the editor's server shuts down): a running rerun finishes on its own and the next editor
+        follows it; with `cancel` (`inbetween watch` ended by Ctrl-C) it is stopped too."""
         with self._cond:
             self._stop = True
             self._cond.notify_all()
             standby, self._standby = self._standby, None
+            pid = self._private.get("pid") if cancel and self._status["state"] == "running" else None
         if standby is not None:
             _release(standby["proc"])
+        if pid:
+            self._kill(int(pid), None)
 
     def request(self, reason: str) -> int:
         """Ask for a rerun; from this call on the status describes it (state running). Returns its number."""
