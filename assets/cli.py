@@ -219,7 +219,7 @@ def _watch(args) -> int:
     # the reruns take `inbetween run`'s flags as given here: everything after SHOT_DIR and --out OUT
     options = [f"--export={','.join(args.export)}", f"--fps={args.fps}", f"--blend={args.blend}",
                f"--template={args.template}", f"--occlusion={args.occlusion}", f"--lanes={args.lanes}",
-               f"--cuts={args.cuts}", *(["--debug"] if args.debug else [])]
+               f"--cuts={args.cuts}", *(["--debug"] if args.debug else []), *(["--verbose"] if args.verbose else [])]
     return watch(args.shot_dir, args.out, options, lambda line: print(line, flush=True))
 
 
