@@ -210,8 +210,15 @@ class TexturedTemplate:
     face_source: np.ndarray  # (m,) int64: 0 = the drawing (the layer in front at the keyframe), 1 = the other
     #                          keyframe, 2 = inpainted (1 and 2: the layer behind, textured from back_texture)
     texture: np.ndarray  # (H, W, 4) float32 the drawing's colour unmixed from the paper, alpha = coverage (straight)
-    back_texture: np.ndarray  # (H, W, 4) float32 texture of the hidden layers in rest coordinates
-    back_inpainted: np.ndarray  # (H, W) bool pixels of back_texture that were inpainted
+    back_texture: np.ndarray  # (H, L W, 4) float32 texture of the hidden layers in rest coordinates, one (H, W)
+    #                           image per back level side by side (L = 1 unless occlusion regions are nested)
+    back_inpainted: np.ndarray  # (H, L W) bool pixels of back_texture that were inpainted
+    back_level: np.ndarray | None = None  # (m,) int64 back level of each hidden face (None: all 0)
+
+    def back_offset(self) -> np.ndarray:
+        """(m,) float32 x offset, pixels, of each face's back texture in back_texture (level * W)."""
+        level = np.zeros(len(self.template.faces), np.int64) if self.back_level is None else self.back_level
+        return (level * self.texture.shape[1]).astype(np.float32)
 
     def face_depth(self, pose: np.ndarray) -> np.ndarray:
         """(m,) float64 depth of each face at a (J, 3) pose (larger = farther)."""

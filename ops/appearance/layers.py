@@ -15,7 +15,8 @@ def region_of_front_faces(template: Template) -> np.ndarray:
     """(m,) int64 occlusion region of each front-sheet face (-1 outside every region or not on the front sheet).
 
     A pocket (layer r + 1) is a copy of region r's front-sheet faces at the same rest positions, so a front-sheet
-    face belongs to region r when a layer r + 1 face has its rest centroid.
+    face belongs to region r when a layer r + 1 face has its rest centroid. Where regions are nested (three
+    local layers) the face belongs to the region stacked first, whose pocket was made first.
     """
     F, layer = template.faces, template.face_layer
     key = np.round(template.rest[F].mean(axis=1) * 1e4).astype(np.int64)
@@ -27,7 +28,8 @@ def region_of_front_faces(template: Template) -> np.ndarray:
     inverse = inverse.ravel()
     region_of = np.full(len(keys), -1, np.int64)
     n_pocket = int(pocket.sum())
-    region_of[inverse[:n_pocket]] = layer[pocket] - 1
+    last_first = slice(None, None, -1)  # pockets are appended front to back: written last, the first one wins
+    region_of[inverse[:n_pocket][last_first]] = (layer[pocket] - 1)[last_first]
     out[~pocket] = region_of[inverse[n_pocket:]]
     return out
 
@@ -50,3 +52,10 @@ def layer_depth(face_depth: np.ndarray, groups: np.ndarray) -> np.ndarray:
         counts = np.bincount(groups[inside])
         out[inside] = sums[groups[inside]] / counts[groups[inside]]
     return out
+
+
+def rest_stacks(template: Template) -> np.ndarray:
+    """(m,) int64 label of each face's rest position: faces with one label lie on each other at rest (a front-sheet
+    face and its copies in the pockets), every other face has a label of its own."""
+    key = np.round(template.rest[template.faces].mean(axis=1) * 1e4).astype(np.int64)
+    return np.unique(key, axis=0, return_inverse=True)[1].ravel().astype(np.int64)

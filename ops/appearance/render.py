@@ -203,6 +203,7 @@ class Renderer:
         self.textured = textured
         self.front = premultiply(textured.texture)
         self.back = premultiply(textured.back_texture)
+        self.back_offset = textured.back_offset()  # (m,) x of each face's back level in back_texture
         self.groups = layer_groups(textured.template)
         tpl = textured.template
         self.sheet = tpl.face_layer == 0  # (m,) the front sheet's faces
@@ -243,9 +244,10 @@ class Renderer:
             ys, xs, f, bx, by = ys[apart], xs[apart], f[apart], bx[apart], by[apart]
             back = self.textured.face_source[f] > 0
             below = np.zeros((len(ys), 4), np.float32)
-            for texture, pick in ((self.front, ~back), (self.back, back)):
+            bx_back = bx + self.back_offset[f]
+            for texture, pick, x in ((self.front, ~back, bx), (self.back, back, bx_back)):
                 if pick.any():  # a (1, k) map samples just these points
-                    below[pick] = cv2.remap(texture, bx[pick][None], by[pick][None], **_REMAP)[0]
+                    below[pick] = cv2.remap(texture, x[pick][None], by[pick][None], **_REMAP)[0]
             pre[ys, xs] += (1.0 - pre[ys, xs, 3:4]) * below
         return pre, map_x, map_y, hidden, ids
 
@@ -258,7 +260,8 @@ class Renderer:
         # so the two premultiplied results add up to the composite
         off = np.float32(-1e4)
         pre = cv2.remap(self.front, np.where(hidden, off, map_x), map_y, **_REMAP)
-        pre += cv2.remap(self.back, np.where(hidden, map_x, off), map_y, **_REMAP)
+        back_x = map_x + self.back_offset.take(np.maximum(ids, 0))  # each hidden face's back level
+        pre += cv2.remap(self.back, np.where(hidden, back_x, off), map_y, **_REMAP)
         return pre, map_x, map_y, hidden
 
     def frame(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
@@ -281,7 +284,7 @@ class Renderer:
         """A window's samples -> its (rgba, inpainted, distorted) pixels, as frame() returns them."""
         rgba = unpremultiply(downsample(pre, s))
         bh, bw = self.textured.back_inpainted.shape
-        cx = np.clip(np.rint(map_x).astype(np.int64), 0, bw - 1)
+        cx = np.clip(np.rint(map_x + self.back_offset.take(np.maximum(ids, 0))).astype(np.int64), 0, bw - 1)
         cy = np.clip(np.rint(map_y).astype(np.int64), 0, bh - 1)
         # source-1 faces may hold inpainted pixels too (samples invisible in the other keyframe)
         filled = hidden & self.textured.back_inpainted[cy, cx]

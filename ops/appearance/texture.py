@@ -16,7 +16,7 @@ import numpy as np
 from scipy import ndimage
 
 from ops.appearance.inpaint import Inpainter, inpaint
-from ops.appearance.layers import region_of_front_faces
+from ops.appearance.layers import layer_depth, layer_groups, rest_stacks
 from ops.appearance.render import affine_maps, rasterize_ids
 from ops.types import RefinedMasks, Template, TexturedTemplate
 
@@ -50,23 +50,29 @@ def character_rgba(masks: RefinedMasks) -> np.ndarray:
 
 
 def drawing_faces(template: Template, weights: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """(m,) bool: the faces that show the drawing at the keyframe's own pose (J, 3).
+    """(m,) bool: the faces that show the drawing at the keyframe's own pose (J, 3) (stack_ranks 0)."""
+    return stack_ranks(template, weights, pose) == 0
 
-    In each occlusion region, of its front-sheet faces and its pocket, the layer with the smaller bounded
-    biharmonic depth averaged over the layer is in front (§5.1): it shows the drawing, the other is hidden.
-    Outside the regions the front sheet shows it.
+
+def stack_ranks(template: Template, weights: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(m,) int64 each face's place front to back among the faces on it at rest, at the keyframe's pose (J, 3):
+    0 shows the drawing, 1 + l is back level l.
+
+    Of the faces on each other at rest (an occlusion region's front-sheet face and its pocket's copy, or three
+    where regions are nested), the one of the layer with the smallest bounded biharmonic depth averaged over
+    the layer is in front (§5.1; a tie goes to the front sheet): it shows the drawing. The hidden ones are
+    numbered front to back: each level has a back texture of its own, since two hidden layers can lie at one
+    rest pixel. Outside the regions the front sheet shows it.
     """
     F, layer = template.faces, template.face_layer
-    depth = (weights @ np.asarray(pose, np.float64)[:, 2])[F].mean(axis=1)
-    front_region = region_of_front_faces(template)
-    shows = layer == 0
-    for r in range(int(layer.max())):
-        sheet, pocket = (layer == 0) & (front_region == r), layer == r + 1
-        if sheet.any() and pocket.any() and depth[pocket].mean() < depth[sheet].mean():
-            shows[sheet], shows[pocket] = False, True
-    return shows
-
-
+    depth = layer_depth((weights @ np.asarray(pose, np.float64)[:, 2])[F].mean(axis=1), layer_groups(template))
+    stack = rest_stacks(template)
+    order = np.lexsort((layer, depth, stack))  # by stack, then front to back
+    first = np.r_[True, stack[order][1:] != stack[order][:-1]]
+    start = np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))
+    rank = np.empty(len(F), np.int64)
+    rank[order] = np.arange(len(order)) - start  # 0 = in front
+    return rank
 def _back_samples(template: Template, back: np.ndarray, deformed_to_other: np.ndarray, shape: tuple[int, int]):
     """Hidden faces `back` (k,) rasterized at rest -> (ids (H, W) int32, qx, qy (H, W) float32 in the other keyframe)."""
     ids = rasterize_ids(template.rest, template.faces, back, shape, 1)
@@ -92,15 +98,38 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
                      pose: np.ndarray, deformed_to_other: np.ndarray | None, inpainter: Inpainter) -> TexturedTemplate:
     """Both keyframes' masks (their coverage and unmixed colour are the drawings), the keyframe's pose (J, 3),
     the template deformed to the other keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at
-    the keyframe shows the drawing). No other keyframe (None, a one-drawing shot): every hidden face is inpainted."""
+    the keyframe shows the drawing). No other keyframe (None, a one-drawing shot): every hidden face is inpainted.
+
+    The hidden faces of each back level (drawing_faces) get a back texture of their own, side by side in
+    TexturedTemplate.back_texture: level l's rest pixel (x, y) is its pixel (x + l W, y)."""
     shape = own.foreground.shape
     texture = character_rgba(own)
-    face_source = np.where(drawing_faces(template, weights, pose), 0, 1).astype(np.int64)
+    level = stack_ranks(template, weights, pose) - 1  # -1: shows the drawing
+    face_source = np.where(level < 0, 0, 1).astype(np.int64)
+    back_level = np.maximum(level, 0)
+    backs, inpainted = [], []
+    context = texture  # what a level's holes are inpainted from: the drawing, under it the levels above
+    for lv in range(max(int(level.max()) + 1, 1)):
+        b, i = _back_layer(template, np.flatnonzero(level == lv), face_source, context, other, deformed_to_other,
+                           inpainter)
+        backs.append(b)
+        inpainted.append(i)
+        # the chest under both crossed forearms continues the chest under each one, not the forearms' ink
+        context = np.where((b[..., 3] > 0)[..., None], b, context)
+    return TexturedTemplate(template, weights, face_source, texture, np.concatenate(backs, axis=1),
+                            np.concatenate(inpainted, axis=1), back_level)
+
+
+def _back_layer(template: Template, hidden: np.ndarray, face_source: np.ndarray, texture: np.ndarray,
+                other: RefinedMasks | None, deformed_to_other: np.ndarray | None, inpainter: Inpainter
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The back texture (H, W, 4) float32 and its inpainted pixels (H, W) bool of hidden faces (k,) that do not lie
+    on each other at rest (one back level); sets their face_source (m,) to 1 (the other keyframe) or 2 (inpainted)."""
+    shape = texture.shape[:2]
     back = np.zeros(shape + (4,), dtype=np.float32)
     back_inpainted = np.zeros(shape, dtype=bool)
-    hidden = np.nonzero(face_source > 0)[0]
     if hidden.size == 0:
-        return TexturedTemplate(template, weights, face_source, texture, back, back_inpainted)
+        return back, back_inpainted
     if other is None:  # one drawing: no other keyframe shows the hidden layers, so all of them are inpainted
         face_source[hidden] = 2
         covered = _back_samples(template, hidden, template.rest, shape)[0] >= 0
@@ -109,7 +138,7 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
         back[~covered] = 0.0
         back_inpainted[:] = covered
         _extend_margin(back, back_inpainted, covered, MARGIN)
-        return TexturedTemplate(template, weights, face_source, texture, back, back_inpainted)
+        return back, back_inpainted
 
     visible = np.asarray(other.foreground, dtype=bool).copy()
     for occ in other.occlusion:
@@ -141,4 +170,4 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     back_inpainted[:] = holes
     if covered.any():
         _extend_margin(back, back_inpainted, covered, MARGIN)
-    return TexturedTemplate(template, weights, face_source, texture, back, back_inpainted)
+    return back, back_inpainted

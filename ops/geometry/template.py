@@ -9,6 +9,12 @@ r + 1, a copy of its faces) whose sewing is decided by the cut assignment
 (ops.topology). Handles are vertices inserted at every joint and at
 fixed fractions along every bone (ops.geometry.handles); inside region r a handle sits on the front
 sheet if its bone is one of the region's front bones, otherwise on the pocket.
+
+Three local layers: where two regions overlap (both forearms folded over the chest: the top forearm's region
+covers the lower forearm and the chest, the lower forearm's the chest, and the two share the crossing), the
+regions are stacked front to back by their front bones' depth, and each region's pocket copies the bottom-most
+copy of each of its faces so far (ops.geometry.topology.incise). A handle descends through the stack to the
+first region whose front bones hold its bone.
 """
 from __future__ import annotations
 
@@ -43,6 +49,12 @@ class TemplateBase:
     junctions: list[np.ndarray]  # per region (k_r,) int64 sorted indices into boundaries[r]
     mode: str  # "optimized" | "single-layer"
     warnings: list[str] = field(default_factory=list)
+    region_faces: list[np.ndarray] = field(default_factory=list)  # per region (f_r,) int64 its faces, ascending:
+    #                                                                 face_region's, plus those it shares (nested)
+    stack: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (R,) regions front to back
+    nested: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), bool))  # (R, R) regions sharing faces
+    handle_regions: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), bool))  # (h, R) the pockets a
+    #                                                                 handle descends through (handle_layer's last)
 
     @property
     def n_regions(self) -> int:
@@ -50,33 +62,72 @@ class TemplateBase:
         return len(self.boundaries)
 
 
-def _handle_layers(P: np.ndarray, W: np.ndarray, skeleton: Skeleton, refined: RefinedMasks, n_regions: int):
-    """(h,) int64 layer of each handle: r + 1 when inside region r and not of a front bone, else 0."""
+MIN_NESTED_FACES = 6  # regions sharing fewer faces only touch (two predicted masks' outlines simplified across
+#                      each other): the shared faces go to the earlier region; more is a region nested in another
+
+
+def _handle_layers(P: np.ndarray, W: np.ndarray, skeleton: Skeleton, refined: RefinedMasks, stack: np.ndarray,
+                   nested: np.ndarray) -> np.ndarray:
+    """(h, R) bool: the regions whose pockets each handle at P (h, 2) descends through. Regions in `stack` order
+    (front to back): a handle inside a region whose front bones hold none of its bones goes down into its pocket,
+    where only the regions nested with that one can take it further; inside one whose front bones hold it, it
+    stays where it is, above the regions nested with that one."""
     bones_of = handle_bones(W, skeleton)
-    layer = np.zeros(len(P), np.int64)
-    for r in range(n_regions):
-        inside = points_in_polygon(P, refined.boundaries[r])
-        front = set(np.asarray(refined.front_bones[r]).tolist())
-        for hix in np.nonzero(inside & (layer == 0))[0]:
-            if not front.intersection(bones_of[hix].tolist()):
-                layer[hix] = r + 1
-    return layer
+    n = len(stack)
+    inside = np.stack([points_in_polygon(P, refined.boundaries[r]) for r in range(n)], axis=1) if n else \
+        np.zeros((len(P), 0), bool)
+    through = np.zeros((len(P), n), bool)
+    for hix in range(len(P)):
+        allowed = np.ones(n, bool)  # first any region; below a pocket only the regions nested with it
+        for r in stack:
+            if not (inside[hix, r] and allowed[r]):
+                continue
+            front = set(np.asarray(refined.front_bones[r]).tolist())
+            if front.intersection(bones_of[hix].tolist()):
+                allowed &= ~nested[r]  # on this region's front: above the regions beneath it here
+                continue
+            through[hix, r] = True
+            allowed = nested[r].copy()
+    return through
 
 
-def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], warnings: list[str]) -> np.ndarray:
-    """(m,) int64 region of each face by centroid (region edges are mesh edges), -1 outside all regions."""
+def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], warnings: list[str]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """((m,) int64 first region of each face by centroid (region edges are mesh edges), -1 outside all regions;
+    (R, m) bool every region's faces). Regions sharing fewer than MIN_NESTED_FACES faces give them to the
+    earlier one, with a warning; sharing more, one is nested in the other and both keep them."""
     region = np.full(len(F), -1, np.int64)
     c = V[F].mean(axis=1)
+    member = np.zeros((len(boundaries), len(F)), bool)
     for r, B in enumerate(boundaries):
         inside = points_in_polygon(c, B)
-        clash = inside & (region >= 0)
-        if clash.any():
-            warnings.append(about("occlusion region", f"overlaps an earlier region on {int(clash.sum())} face(s); "
-                                  "kept the earlier", name=r, at=B.mean(axis=0)))
-        region[inside & (region < 0)] = r
         if not inside.any():
             warnings.append(about("occlusion region", "contains no face", name=r, at=B.mean(axis=0)))
-    return region
+        for q in range(r):
+            shared = inside & member[q]
+            if shared.any() and shared.sum() < MIN_NESTED_FACES:
+                warnings.append(about("occlusion region", f"overlaps region {q} on {int(shared.sum())} face(s); "
+                                      "kept the earlier", name=r, at=B.mean(axis=0)))
+                inside &= ~shared
+        member[r] = inside
+        region[inside & (region < 0)] = r
+    return region, member
+
+
+def _stack(member: np.ndarray, refined: RefinedMasks, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((R,) int64 regions front to back, (R, R) bool regions sharing faces). Without nesting the regions keep
+    their order; with it they are sorted by their front bones' mean joint depth (smaller z in front)."""
+    R = len(member)
+    nested = (member.astype(np.int64) @ member.T.astype(np.int64)) > 0
+    np.fill_diagonal(nested, False)
+    if not nested.any():
+        return np.arange(R, dtype=np.int64), nested
+    z = np.asarray(pose, np.float64)[:, 2]
+    depth = []
+    for r in range(R):
+        bones = np.asarray(refined.front_bones[r], np.int64)
+        depth.append(float(z[bones].mean()) if len(bones) else np.inf)
+    return np.lexsort((np.arange(R), np.asarray(depth))).astype(np.int64), nested
 
 
 def _degenerate(res) -> bool:
@@ -133,8 +184,16 @@ def build_template(
         lost = [handles.names[i] for i in np.nonzero(res.point_vertex < 0)[0]]
         raise ValueError(f"handles {lost} could not be inserted as mesh vertices")
     W = handles.weights
-    region = _face_regions(res.V, res.F, boundaries, warnings)
-    layer = _handle_layers(res.V[res.point_vertex], W, skeleton, refined, len(boundaries))
+    region, member = _face_regions(res.V, res.F, boundaries, warnings)
+    stack, nested = _stack(member, refined, pose)
+    through = _handle_layers(res.V[res.point_vertex], W, skeleton, refined, stack, nested)
+    layer = np.zeros(len(through), np.int64)
+    for r in stack:  # the deepest pocket each handle descends to
+        layer[through[:, r]] = r + 1
+    if nested.any():
+        pairs = sorted({(int(min(a, b)), int(max(a, b))) for a, b in zip(*np.nonzero(nested))})
+        warnings.append(f"occlusion regions {pairs} overlap: stacked front to back {stack.tolist()} by their front "
+                        "bones' depth (three local layers where they share faces)")
     junctions = [np.unique(np.asarray(refined.junctions[r], dtype=np.int64)) for r in range(len(boundaries))]
     for r, jn in enumerate(junctions):
         if len(jn) and (jn.min() < 0 or jn.max() >= len(boundaries[r])):
@@ -151,5 +210,6 @@ def build_template(
     return TemplateBase(
         V=res.V, F=res.F, face_region=region, handle_vertex=res.point_vertex, handle_layer=layer,
         handle_weights=W, handle_offsets=handles.offsets, handle_frames=handles.frames, boundaries=boundaries, boundary_vertex=bvert, junctions=junctions,
-        mode=mode, warnings=warnings,
+        mode=mode, warnings=warnings, region_faces=[np.flatnonzero(m) for m in member], stack=stack,
+        nested=nested, handle_regions=through,
     )

@@ -143,27 +143,50 @@ class Incised:
     face_layer: np.ndarray  # (m,) int64
     handles: np.ndarray  # (h,) int64
     warnings: list[str]
+    upper: list[np.ndarray] = field(default_factory=list)  # per region (f_r,) int64 the faces its pocket copies,
+    #                                                          in the order of its pocket's faces
 
 
 def incise(base: TemplateBase, assignments: list[Assignment]) -> Incised:
-    """Add each region's pocket and re-index vertices along its boundary per its assignment."""
+    """Add each region's pocket and re-index vertices along its boundary per its assignment.
+
+    Regions are taken front to back (base.stack). Each region's pocket copies the bottom-most copy so far of each
+    of its faces (the front sheet's, or inside a region stacked above it that region's pocket), and its cut
+    re-points the faces across its boundary at that level: the front sheet's, and the pockets of the regions it
+    is nested with. Without nested regions this is the two-layer incision of §4.4."""
     V, F = base.V.copy(), base.F.copy()
     layer = np.zeros(len(F), np.int64)
-    region = base.face_region.copy()
+    bottom = np.arange(len(F))  # per base face, its bottom-most copy so far
+    origin = np.arange(len(V))  # per vertex, the base vertex it copies
+    R = base.n_regions
+    members = base.region_faces if len(base.region_faces) == R else \
+        [np.flatnonzero(base.face_region == r) for r in range(R)]
+    stack = base.stack if len(base.stack) == R else np.arange(R)
+    nested = base.nested if base.nested.shape == (R, R) else np.zeros((R, R), bool)
+    through = base.handle_regions if base.handle_regions.shape == (len(base.handle_vertex), R) else \
+        (base.handle_layer[:, None] == np.arange(1, R + 1)[None])
     handles = base.handle_vertex.copy()
     warnings: list[str] = []
     switches: list[np.ndarray] = []
-    for r, a in enumerate(assignments):
-        in_r = region == r
-        outside = (layer == 0) & ~in_r
-        rv = np.unique(F[in_r])
-        sw = np.intersect1d(base.boundary_vertex[r][a.switches], rv)
+    upper: list[np.ndarray] = [np.zeros(0, np.int64)] * R
+    for r in stack:
+        a = assignments[r]
+        cur = bottom[members[r]]
+        in_r = np.zeros(len(F), bool)
+        in_r[cur] = True
+        # faces across the boundary: the front sheet's, and the pockets of the regions nested with this one
+        level = (layer == 0) | np.isin(layer - 1, np.flatnonzero(nested[r]))
+        outside = level & ~in_r
+        rv = np.unique(F[cur])
+        ends = base.boundary_vertex[r][a.switches]
+        sw = rv[np.isin(origin[rv], ends)] if nested[r].any() else np.intersect1d(ends, rv)
         switches.append(sw)
         copy = np.setdiff1d(rv, sw)
         back = np.full(len(V), -1, np.int64)
         back[copy] = len(V) + np.arange(len(copy))
         back[sw] = sw
         V = np.concatenate([V, V[copy]])
+        origin = np.concatenate([origin, origin[copy]])
         back = np.concatenate([back, np.full(len(copy), -1, np.int64)])
         # Boundary vertices: region vertices that outside faces also use (outer-boundary ones are not).
         used_out = np.zeros(len(V), bool)
@@ -174,17 +197,18 @@ def incise(base: TemplateBase, assignments: list[Assignment]) -> Incised:
         moved = cut[segment_labels(a, param) == 1]
         remap[moved] = back[moved]
         F[outside] = remap[F[outside]]
-        F = np.concatenate([F, back[F[in_r]]])
-        layer = np.concatenate([layer, np.full(int(in_r.sum()), r + 1, np.int64)])
-        region = np.concatenate([region, np.full(int(in_r.sum()), -1, np.int64)])
-        on_pocket = base.handle_layer == r + 1
-        handles[on_pocket] = np.where(back[handles[on_pocket]] >= 0, back[handles[on_pocket]], handles[on_pocket])
+        upper[r] = cur
+        bottom[members[r]] = len(F) + np.arange(len(cur))
+        F = np.concatenate([F, back[F[cur]]])
+        layer = np.concatenate([layer, np.full(len(cur), r + 1, np.int64)])
+        down = through[:, r]
+        handles[down] = np.where(back[handles[down]] >= 0, back[handles[down]], handles[down])
     # a switch vertex where a slit from the T-junction meets the region's cut joins its sheets at one point
     if switches:
-        F, origin = split_fans(F, len(V), np.concatenate(switches))
-        V = V[origin]
+        F, split_origin = split_fans(F, len(V), np.concatenate(switches))
+        V = V[split_origin]
     warnings += _nonmanifold_warning(F)
-    return Incised(rest=V, faces=F, face_layer=layer, handles=handles, warnings=warnings)
+    return Incised(rest=V, faces=F, face_layer=layer, handles=handles, warnings=warnings, upper=upper)
 
 
 def _nonmanifold_warning(F: np.ndarray) -> list[str]:
@@ -344,7 +368,7 @@ class _Search:
         source_faces = src.inc.faces.copy()
         for r, (mine, theirs) in enumerate(zip(assignments, src.assignments)):
             if np.array_equal(mine.switches, theirs.switches) and np.array_equal(mine.labels, 1 - theirs.labels):
-                front = np.flatnonzero(self.base.face_region == r)
+                front = src.inc.upper[r]
                 pocket = np.flatnonzero(src.inc.face_layer == r + 1)
                 source_faces[front], source_faces[pocket] = src.inc.faces[pocket], src.inc.faces[front]
         return source_faces
