@@ -15,6 +15,7 @@ from ops.segmentation.contacts import drawn_parts, stroke_contacts
 from ops.segmentation.domain import closed_holes
 from ops.segmentation.foreground import Foreground, foreground_from_mask, segment_foreground
 from ops.segmentation.manual import clip_manual_occlusion, manual_front_bones
+from ops.segmentation.nesting import nest_crossed_fronts
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion
 from ops.settings import OCCLUSION_PREDICTORS
 from ops.types import Masks, Skeleton
@@ -118,6 +119,9 @@ regions shaped by the drawing), "pairs" (the hybrid's, one region per overlappin
                 regions, fronts, w = split_by_pairs(regions, drawing, body, pose, skeleton, source)
             else:
                 fronts, w = check_fronts(regions, fronts, drawing, body, pose, skeleton, source)  # the drawing's word
+            warnings += w
+        if occlusion != "pairs":  # pairs are one region per overlapping pair: their crossings are apart already
+            regions, fronts, w = nest_crossed_fronts(regions, fronts, body, pose, skeleton)
             warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included

@@ -1,0 +1,87 @@
+"""Nested occlusion regions where two front bones of one region cross each other (three local layers, §4.2).
+
+A predicted region holds every pixel where something is hidden, its front bones the parts in front there. Where
+both forearms fold over the chest, one region has both forearms as front bones, and meshed as one pocket the two
+forearms share the front sheet and stay glued where they cross. The drawing has three layers there: the top
+forearm, the lower one, the chest. So the region is split in two that overlap at the crossing:
+- the lower forearm's: where its body lies in the region (over the chest, and under the top forearm), front bone
+  the lower forearm;
+- the rest's: the region less where only the lower forearm is in front, front bones the others.
+The template stacks them by their front bones' depth (ops.geometry.template) and meshes the crossing three times.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ops.segmentation.bones import bone_depths, thick_regions
+from ops.segmentation.contacts import scale_of
+from ops.types import Skeleton
+
+MIN_CROSSING_PX = 40  # at the reference size: two front bones' bodies meeting on less inside a region only touch
+
+
+def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], body: np.ndarray, pose: np.ndarray,
+                        skeleton: Skeleton) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+    """Regions ((H, W) bool each) with their (b,) int64 front bones -> the same with each region whose front bones
+    cross in it (two bones not sharing a joint, at different depths, whose bodies meet on MIN_CROSSING_PX there)
+    split into the lower bone's region and the rest's, which overlap at the crossing; one note per split.
+    body: (H, W) bool the drawn bodies; pose (J, 3) pixels and depth."""
+    if not any(len(f) >= 2 for f in fronts):
+        return list(regions), list(fronts), []
+    thick = thick_regions(body, pose, skeleton)
+    depth = bone_depths(pose, skeleton)
+    adjacent = skeleton.adjacent_bones()
+    min_px = MIN_CROSSING_PX * scale_of(body.shape) ** 2
+    out_r, out_f, notes = [], [], []
+    queue = list(zip(regions, fronts))
+    while queue:
+        region, front = queue.pop(0)
+        crossing = _crossing(region, front, thick, depth, adjacent, min_px)
+        if crossing is None:
+            out_r.append(region)
+            out_f.append(front)
+            continue
+        top, low = crossing
+        lower = region & thick[low]
+        rest = region & ~(thick[low] & ~thick[top])
+        rest_front = np.asarray([b for b in front if b != low], np.int64)
+        out_r.append(lower)
+        out_f.append(np.asarray([low], np.int64))
+        queue.insert(0, (rest, rest_front))  # the rest may hold another crossing (three forearms: a puppet's)
+        notes.append(f"occlusion: bones {_name(skeleton, top)} and {_name(skeleton, low)} cross in front of the "
+                     f"body on {int((lower & thick[top]).sum())} px: three local layers there ({_name(skeleton, top)} "
+                     f"over {_name(skeleton, low)} over what they cover)")
+    return out_r, out_f, notes
+
+
+def _crossing(region: np.ndarray, front: np.ndarray, thick: np.ndarray, depth: np.ndarray, adjacent: np.ndarray,
+              min_px: float) -> tuple[int, int] | None:
+    """(top, low) bones of the largest crossing of two of a region's front bones in it, or None.
+
+    A crossing is where both bodies lie over a third, farther than both and joined to neither (the chest under
+    two forearms): a thigh over the pelvis' bone has nothing beneath them both. As for the occlusion rule's
+    pairs, bones joined through one short bone (spine - clavicle - upper arm) meet around it, and that bone's
+    body is no crossing."""
+    best, where = None, 0
+    front = [int(b) for b in front]
+    for i, a in enumerate(front):
+        for b in front[i + 1:]:
+            if adjacent[a, b] or np.isclose(depth[a], depth[b]):
+                continue
+            between = adjacent[a] & adjacent[b]
+            beneath = (depth > max(depth[a], depth[b])) & ~adjacent[a] & ~adjacent[b]
+            if not beneath.any():
+                continue
+            crossing = region & thick[a] & thick[b] & thick[beneath].any(axis=0)
+            if between.any():
+                crossing &= ~thick[between].any(axis=0)
+            n = int(crossing.sum())
+            if n >= min_px and n > where:
+                best, where = ((a, b) if depth[a] < depth[b] else (b, a)), n
+    return best
+
+
+def _name(skeleton: Skeleton, b: int) -> str:
+    """Readable name of bone b, e.g. 'elbow-hand'."""
+    p, c = skeleton.bones[b]
+    return f"{skeleton.joints[p]}-{skeleton.joints[c]}"
