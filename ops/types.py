@@ -118,6 +118,9 @@ class Masks:
     # (H, W) bool each: where the bodies of two bones that are not neighbours touch (ops.segmentation.contacts);
     # the template is slit along them. Found whenever the occlusion is predicted (empty for painted regions).
     contacts: list[np.ndarray] = field(default_factory=list)
+    # per region its nest group: regions of one group >= 0 are layers of one stack and may share pixels (three
+    # local layers: crossed forearms, overlapping painted masks); -1, or an empty list, none
+    nest_groups: list[int] = field(default_factory=list)
 
 
 @dataclass
@@ -137,6 +140,7 @@ class RefinedMasks:
     colour: np.ndarray  # (H, W, 3) float32 character colour unmixed from the paper (Masks.colour)
     warnings: list[str] = field(default_factory=list)
     slits: list[np.ndarray] = field(default_factory=list)  # open polylines (n_i, 2) float64, pixels: the mesh is cut along them
+    nest_groups: list[int] = field(default_factory=list)  # per region, as Masks.nest_groups
 
 
 MIN_BONE_PX = 1e-6  # shorter bones (two joints at one spot) have no direction to carry an offset
@@ -282,3 +286,8 @@ class OutputFrames:
     alphas: np.ndarray  # (T,) float64 alpha taken at each time
     frames: np.ndarray  # (T, H, W, 4) float32 straight alpha
     blend: str  # "optimal" | "diagonal"
+
+
+def nest_group_list(groups: list[int], n: int) -> list[int]:
+    """Per region of n its nest group: `groups` as given (Masks.nest_groups), or all -1 where it is empty or stale."""
+    return [int(g) for g in groups] if len(groups) == n else [-1] * n

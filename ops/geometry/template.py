@@ -10,9 +10,9 @@ r + 1, a copy of its faces) whose sewing is decided by the cut assignment
 fixed fractions along every bone (ops.geometry.handles); inside region r a handle sits on the front
 sheet if its bone is one of the region's front bones, otherwise on the pocket.
 
-Three local layers: where two regions overlap (both forearms folded over the chest: the top forearm's region
-covers the lower forearm and the chest, the lower forearm's the chest, and the two share the crossing), the
-regions are stacked front to back by their front bones' depth, and each region's pocket copies the bottom-most
+Three local layers: where two regions of one nest group overlap (both forearms folded over the chest: the top
+forearm's region covers the lower forearm and the chest, the lower forearm's the chest, and the two share the
+crossing; ops.segmentation.nesting), the regions are stacked front to back by their front bones' depth, and each region's pocket copies the bottom-most
 copy of each of its faces so far (ops.geometry.topology.incise). A handle descends through the stack to the
 first region whose front bones hold its bone.
 """
@@ -25,7 +25,7 @@ import numpy as np
 from ops.geometry.handles import handle_bones, place_handles
 from ops.geometry.mesh import cut_along, signed_areas, triangulate_pslg
 from ops.geometry.polygon import points_in_polygon, polygon_area
-from ops.types import RefinedMasks, Skeleton
+from ops.types import RefinedMasks, Skeleton, nest_group_list
 from ops.warning_subject import about
 
 FACES_PER_FOREGROUND = 1000.0  # default max_area = foreground area / this
@@ -62,8 +62,8 @@ class TemplateBase:
         return len(self.boundaries)
 
 
-MIN_NESTED_FACES = 6  # regions sharing fewer faces only touch (two predicted masks' outlines simplified across
-#                      each other): the shared faces go to the earlier region; more is a region nested in another
+MIN_NESTED_FACES = 6  # regions of one nest group sharing fewer faces only touch (outlines simplified across each
+#                      other): the shared faces go to the earlier region, as for regions of no common group
 
 
 def _handle_layers(P: np.ndarray, W: np.ndarray, skeleton: Skeleton, refined: RefinedMasks, stack: np.ndarray,
@@ -91,11 +91,12 @@ def _handle_layers(P: np.ndarray, W: np.ndarray, skeleton: Skeleton, refined: Re
     return through
 
 
-def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], warnings: list[str]
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], groups: list[int],
+                  warnings: list[str]) -> tuple[np.ndarray, np.ndarray]:
     """((m,) int64 first region of each face by centroid (region edges are mesh edges), -1 outside all regions;
-    (R, m) bool every region's faces). Regions sharing fewer than MIN_NESTED_FACES faces give them to the
-    earlier one, with a warning; sharing more, one is nested in the other and both keep them."""
+    (R, m) bool every region's faces). Two regions of one nest group (RefinedMasks.nest_groups, >= 0) sharing at
+    least MIN_NESTED_FACES faces are layers of one stack and both keep them; other regions give shared faces to
+    the earlier one, with a warning (two predicted regions overlapping by accident)."""
     region = np.full(len(F), -1, np.int64)
     c = V[F].mean(axis=1)
     member = np.zeros((len(boundaries), len(F)), bool)
@@ -105,7 +106,8 @@ def _face_regions(V: np.ndarray, F: np.ndarray, boundaries: list[np.ndarray], wa
             warnings.append(about("occlusion region", "contains no face", name=r, at=B.mean(axis=0)))
         for q in range(r):
             shared = inside & member[q]
-            if shared.any() and shared.sum() < MIN_NESTED_FACES:
+            stacked = groups[r] >= 0 and groups[q] == groups[r] and shared.sum() >= MIN_NESTED_FACES
+            if shared.any() and not stacked:
                 warnings.append(about("occlusion region", f"overlaps region {q} on {int(shared.sum())} face(s); "
                                       "kept the earlier", name=r, at=B.mean(axis=0)))
                 inside &= ~shared
@@ -184,7 +186,8 @@ def build_template(
         lost = [handles.names[i] for i in np.nonzero(res.point_vertex < 0)[0]]
         raise ValueError(f"handles {lost} could not be inserted as mesh vertices")
     W = handles.weights
-    region, member = _face_regions(res.V, res.F, boundaries, warnings)
+    groups = nest_group_list(refined.nest_groups, len(refined.boundaries))
+    region, member = _face_regions(res.V, res.F, boundaries, groups, warnings)
     stack, nested = _stack(member, refined, pose)
     through = _handle_layers(res.V[res.point_vertex], W, skeleton, refined, stack, nested)
     layer = np.zeros(len(through), np.int64)

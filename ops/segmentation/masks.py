@@ -97,6 +97,7 @@ regions shaped by the drawing), "pairs" (the hybrid's, one region per overlappin
     warnings = seg.warnings + pose_warnings(fg, pose, skeleton)
     predicted = manual_occlusion is None or len(manual_occlusion) == 0
     contacts: list[np.ndarray] = []
+    groups: list[int] = []  # Masks.nest_groups: none unless a crossing or painted layers make them
     parts = drawn_parts(drawing, body, pose, skeleton) if predicted else None  # the hybrid's and the contacts'
     if predicted and occlusion == "drawing":
         # no pockets where bones that share a joint overlap: the mesh bends there, and a pocket at an elbow
@@ -121,7 +122,7 @@ regions shaped by the drawing), "pairs" (the hybrid's, one region per overlappin
                 fronts, w = check_fronts(regions, fronts, drawing, body, pose, skeleton, source)  # the drawing's word
             warnings += w
         if occlusion != "pairs":  # pairs are one region per overlapping pair: their crossings are apart already
-            regions, fronts, w = nest_crossed_fronts(regions, fronts, body, pose, skeleton)
+            regions, fronts, groups, w = nest_crossed_fronts(regions, fronts, body, pose, skeleton)
             warnings += w
     if predicted:  # painted regions are the user's word on the layers: no slits beside them
         # glued paper: what the mesh holds that is no body, slivers of holes it closes over included
@@ -138,10 +139,11 @@ regions shaped by the drawing), "pairs" (the hybrid's, one region per overlappin
             scored.append((-depth, r, front))
         scored.sort(key=lambda s: s[0])  # stable: ties keep the file order
         regions, fronts = [s[1] for s in scored], [s[2] for s in scored]
+        groups = [0] * len(regions)  # painted regions that overlap are the user's layers, stacked by depth
     n_manual = (manual_foreground is not None) + (not predicted)
     kind = {0: "predicted", 1: "mixed", 2: "manual"}[n_manual]
     return Masks(
         foreground=fg, occlusion=regions, front_bones=fronts, coverage=seg.coverage, colour=seg.colour,
         paper=seg.paper, holes=seg.holes, n_holes=seg.n_holes, source=kind, warnings=warnings,
-        contacts=contacts,
+        contacts=contacts, nest_groups=groups,
     )

@@ -21,52 +21,62 @@ MIN_CROSSING_PX = 40  # at the reference size: two front bones' bodies meeting o
 
 
 def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], body: np.ndarray, pose: np.ndarray,
-                        skeleton: Skeleton) -> tuple[list[np.ndarray], list[np.ndarray], list[str]]:
+                        skeleton: Skeleton) -> tuple[list[np.ndarray], list[np.ndarray], list[int], list[str]]:
     """Regions ((H, W) bool each) with their (b,) int64 front bones -> the same with each region whose front bones
     cross in it (two bones not sharing a joint, at different depths, whose bodies meet on MIN_CROSSING_PX there)
-    split into the lower bone's region and the rest's, which overlap at the crossing; one note per split.
+    split into the lower bone's region and the rest's, which overlap at the crossing; per region its nest group
+    (the regions of one group >= 0 are layers of one stack, Masks.nest_groups; -1: none); one note per split.
     body: (H, W) bool the drawn bodies; pose (J, 3) pixels and depth."""
     if not any(len(f) >= 2 for f in fronts):
-        return list(regions), list(fronts), []
+        return list(regions), list(fronts), [-1] * len(regions), []
     thick = thick_regions(body, pose, skeleton)
     depth = bone_depths(pose, skeleton)
     adjacent = skeleton.adjacent_bones()
+    chained = _chained(skeleton) | ~(_limbs(skeleton)[:, None] & _limbs(skeleton)[None, :])  # limb pairs only
     min_px = MIN_CROSSING_PX * scale_of(body.shape) ** 2
-    out_r, out_f, notes = [], [], []
-    queue = list(zip(regions, fronts))
+    out_r, out_f, out_g, notes = [], [], [], []
+    queue = [(r, f, -1) for r, f in zip(regions, fronts)]
+    groups = 0
     while queue:
-        region, front = queue.pop(0)
-        crossing = _crossing(region, front, thick, depth, adjacent, min_px)
+        region, front, group = queue.pop(0)
+        crossing = _crossing(region, front, thick, depth, adjacent, chained, min_px)
         if crossing is None:
             out_r.append(region)
             out_f.append(front)
+            out_g.append(group)
             continue
+        if group < 0:
+            group, groups = groups, groups + 1
         top, low = crossing
         lower = region & thick[low]
         rest = region & ~(thick[low] & ~thick[top])
         rest_front = np.asarray([b for b in front if b != low], np.int64)
         out_r.append(lower)
         out_f.append(np.asarray([low], np.int64))
-        queue.insert(0, (rest, rest_front))  # the rest may hold another crossing (three forearms: a puppet's)
+        out_g.append(group)
+        queue.insert(0, (rest, rest_front, group))  # the rest may hold another crossing (three forearms: a puppet's)
         notes.append(f"occlusion: bones {_name(skeleton, top)} and {_name(skeleton, low)} cross in front of the "
                      f"body on {int((lower & thick[top]).sum())} px: three local layers there ({_name(skeleton, top)} "
                      f"over {_name(skeleton, low)} over what they cover)")
-    return out_r, out_f, notes
+    return out_r, out_f, out_g, notes
 
 
 def _crossing(region: np.ndarray, front: np.ndarray, thick: np.ndarray, depth: np.ndarray, adjacent: np.ndarray,
-              min_px: float) -> tuple[int, int] | None:
+              chained: np.ndarray, min_px: float) -> tuple[int, int] | None:
     """(top, low) bones of the largest crossing of two of a region's front bones in it, or None.
 
-    A crossing is where both bodies lie over a third, farther than both and joined to neither (the chest under
-    two forearms): a thigh over the pelvis' bone has nothing beneath them both. As for the occlusion rule's
+    A crossing is where two limbs of different branches of the skeleton both lie over a third body, farther than
+    both and joined to neither (the chest under two forearms). chained: (B, B) bool pairs that cannot cross: one
+    bone an ancestor of the other (a thigh and its own foot are one limb), or one of them no limb (a spine or a
+    hip bone, below which the skeleton forks: a near thigh over the torso's bone in a side view is the thigh
+    over the body, one overlap). As for the occlusion rule's
     pairs, bones joined through one short bone (spine - clavicle - upper arm) meet around it, and that bone's
     body is no crossing."""
     best, where = None, 0
     front = [int(b) for b in front]
     for i, a in enumerate(front):
         for b in front[i + 1:]:
-            if adjacent[a, b] or np.isclose(depth[a], depth[b]):
+            if adjacent[a, b] or chained[a, b] or np.isclose(depth[a], depth[b]):
                 continue
             between = adjacent[a] & adjacent[b]
             beneath = (depth > max(depth[a], depth[b])) & ~adjacent[a] & ~adjacent[b]
@@ -79,6 +89,37 @@ def _crossing(region: np.ndarray, front: np.ndarray, thick: np.ndarray, depth: n
             if n >= min_px and n > where:
                 best, where = ((a, b) if depth[a] < depth[b] else (b, a)), n
     return best
+
+
+def _limbs(skeleton: Skeleton) -> np.ndarray:
+    """(B,) bool: bones whose child joint's subtree never branches (a forearm, a shin, a tail's segment), not a
+    spine or a hip bone, below which the skeleton forks."""
+    parents = np.asarray(skeleton.parents)
+    children = np.bincount(parents[parents >= 0], minlength=len(parents))
+    forks_below = children > 1
+    for j in range(len(parents) - 1, -1, -1):  # joints come after their parents: children first, fold upwards
+        if parents[j] >= 0 and forks_below[j]:
+            forks_below[parents[j]] = True
+    return np.array([not forks_below[int(c)] for _, c in np.asarray(skeleton.bones)], bool)
+
+
+def _chained(skeleton: Skeleton) -> np.ndarray:
+    """(B, B) bool: bone pairs of which one lies on the other's path to the root (the same limb)."""
+    bones = np.asarray(skeleton.bones)
+    parents = np.asarray(skeleton.parents)
+    above = []  # per bone, the joints from its parent joint up to the root
+    for p, _ in bones:
+        path, j = set(), int(p)
+        while j >= 0:
+            path.add(j)
+            j = int(parents[j])
+        above.append(path)
+    B = len(bones)
+    out = np.zeros((B, B), bool)
+    for a in range(B):
+        for b in range(B):
+            out[a, b] = int(bones[a][1]) in above[b] or int(bones[b][1]) in above[a]
+    return out
 
 
 def _name(skeleton: Skeleton, b: int) -> str:

@@ -26,7 +26,7 @@ from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
 from ops.segmentation.slits import junction_slits, slit_of
-from ops.types import Masks, RefinedMasks, Skeleton
+from ops.types import Masks, RefinedMasks, Skeleton, nest_group_list
 from ops.warning_subject import about, inside_point
 
 DP_EPS_PX = 2.0  # Douglas-Peucker tolerance of every output polyline
@@ -207,9 +207,11 @@ def _positions(B: np.ndarray, J: np.ndarray) -> np.ndarray:
 
 
 def _split_pieces(regions: list[np.ndarray], fronts: list[np.ndarray], junctions: list[np.ndarray],
-                  warnings: list[str]) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+                  groups: list[int], warnings: list[str]
+                  ) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray], list[int]]:
     """The regions (each (H, W) bool) with one region per 8-connected piece of every region that has no
-    T-junction, each piece with its region's front bones (and no junction); a region with T-junctions as it is.
+    T-junction, each piece with its region's front bones, nest group (and no junction); a region with
+    T-junctions as it is.
 
     A template meshes a region's pocket from one boundary loop, so a region in pieces used to free its largest
     piece only and glue the rest: the skeleton's capsules overlapping into one mask make the legs behind a
@@ -217,8 +219,8 @@ def _split_pieces(regions: list[np.ndarray], fronts: list[np.ndarray], junctions
     dragged the chest up with it). The pieces are separate overlaps; one under MIN_PIECE_PX is left out, as
     every piece but the largest was before. A region with T-junctions keeps its largest piece, refined through
     its clicks (below)."""
-    out: tuple[list, list, list] = ([], [], [])
-    for r, (region, front, J) in enumerate(zip(regions, fronts, junctions)):
+    out: tuple[list, list, list, list] = ([], [], [], [])
+    for r, (region, front, J, group) in enumerate(zip(regions, fronts, junctions, groups)):
         labels, n = ndimage.label(region, structure=EIGHT)
         if n < 2 or len(J):
             pieces = [region]
@@ -239,6 +241,7 @@ def _split_pieces(regions: list[np.ndarray], fronts: list[np.ndarray], junctions
             out[0].append(piece)
             out[1].append(front)
             out[2].append(J)
+            out[3].append(group)
     return out
 
 
@@ -255,10 +258,12 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     regions, front_bones, per_region, w = assign_junctions(np.asarray(t_junctions, np.float64).reshape(-1, 2),
                                                            masks.occlusion, masks.front_bones, fg, pose, skeleton)
     warnings += w
-    regions, front_bones, per_region = _split_pieces(regions, front_bones, per_region, warnings)
+    groups = nest_group_list(masks.nest_groups, len(masks.occlusion))
+    groups += [-1] * (len(regions) - len(groups))  # a region started at a click stacks with none
+    regions, front_bones, per_region, groups = _split_pieces(regions, front_bones, per_region, groups, warnings)
     thin = thin_overlaps(regions, masks.contacts)
-    occ, fronts, bounds, juncs = [], [], [], []
-    for r, (region, front, J) in enumerate(zip(regions, front_bones, per_region)):
+    occ, fronts, bounds, juncs, nests = [], [], [], [], []
+    for r, (region, front, J, group) in enumerate(zip(regions, front_bones, per_region, groups)):
         if thin[r] and not len(J):
             warnings.append(about("occlusion region", f"({int(region.sum())} px) lies along a contact of two touching "
                                   "bodies: slit along the contact instead of a pocket", name=r, at=inside_point(region)))
@@ -284,6 +289,7 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         fronts.append(front)
         bounds.append(B)
         juncs.append(jidx)
+        nests.append(group)
     domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
     taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
     slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
@@ -304,4 +310,5 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         colour=masks.colour,
         warnings=warnings,
         slits=slits,
+        nest_groups=nests,
     )

@@ -45,6 +45,7 @@ def folded_arms(order=("left", "right")):
         boundaries=[arms[o] for o in order], junctions=[np.zeros(0, np.int64) for _ in order], domain=[torso],
         domain_holes=np.zeros((0, 2)), coverage=fg.astype(np.float32),
         paper=np.ones(shape + (3,), np.float32), colour=_colours(fg, fill(arms["left"]), fill(arms["right"])),
+        nest_groups=[0, 0],  # one stack, as nesting (or two painted masks) says
     )
     return refined, sk, pose0, pose1
 
@@ -68,6 +69,11 @@ def test_overlapping_regions_are_stacked_front_to_back_by_depth(midpoint_handles
         shared = np.intersect1d(base.region_faces[0], base.region_faces[1])
         assert len(shared) >= 6 and np.linalg.norm(base.V[base.F[shared]].mean(axis=(0, 1)) - CROSSING) < 3
         assert any("stacked front to back" in w for w in base.warnings)
+    # regions of no common nest group overlap by accident: the earlier keeps the shared faces, as before
+    refined.nest_groups = [-1, -1]
+    base = build_template(refined, pose, sk)
+    assert not base.nested.any() and not np.intersect1d(base.region_faces[0], base.region_faces[1]).size
+    assert any("kept the earlier" in w for w in base.warnings)
 
 
 def test_the_crossing_holds_three_sheets_and_the_chest_has_no_hole(midpoint_handles):

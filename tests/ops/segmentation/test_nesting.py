@@ -11,8 +11,9 @@ def test_crossed_forearms_split_into_the_lower_ones_region_and_the_rests():
     refined, sk, pose, _ = folded_arms()
     body = refined.foreground
     region = refined.occlusion[0] | refined.occlusion[1]  # one region, both forearms in front, as predicted
-    regions, fronts, notes = nest_crossed_fronts([region], [np.array([L_FOREARM, R_FOREARM])], body, pose, sk)
-    assert len(regions) == 2 and len(notes) == 1 and "l_elbow-l_hand" in notes[0]
+    regions, fronts, groups, notes = nest_crossed_fronts([region], [np.array([L_FOREARM, R_FOREARM])], body, pose,
+                                                         sk)
+    assert len(regions) == 2 and len(notes) == 1 and "l_elbow-l_hand" in notes[0] and groups == [0, 0]
     lower, rest = regions
     assert fronts[0].tolist() == [R_FOREARM] and fronts[1].tolist() == [L_FOREARM]  # the right one (z -1) lower
     thick = thick_regions(body, pose, sk)
@@ -29,9 +30,9 @@ def test_fronts_that_do_not_cross_over_a_third_body_stay_one_region():
     region = refined.occlusion[0] | refined.occlusion[1]
     far = pose.copy()
     far[:, 2] = [0, 0, 5, 5, 5, 6, 6, 6]  # the torso in front of both arms: nothing lies beneath them both
-    regions, fronts, notes = nest_crossed_fronts([region], [np.array([L_FOREARM, R_FOREARM])], refined.foreground,
-                                                 far, sk)
-    assert len(regions) == 1 and notes == [] and (regions[0] == region).all()
+    regions, fronts, groups, notes = nest_crossed_fronts([region], [np.array([L_FOREARM, R_FOREARM])],
+                                                         refined.foreground, far, sk)
+    assert len(regions) == 1 and notes == [] and (regions[0] == region).all() and groups == [-1]
     # one front bone: nothing to nest
-    regions, _, notes = nest_crossed_fronts([region], [np.array([L_FOREARM])], refined.foreground, pose, sk)
+    regions, _, _, notes = nest_crossed_fronts([region], [np.array([L_FOREARM])], refined.foreground, pose, sk)
     assert len(regions) == 1 and notes == []
