@@ -217,6 +217,13 @@ def test_manual_regions_sorted_back_to_front():
     back[:, :] &= np.arange(back.shape[0])[:, None] > 110  # lower torso only (z = 0)
     masks = build_masks(drawing, pose, skeleton, manual_occlusion=[front, back])
     assert np.array_equal(masks.occlusion[0], back) and np.array_equal(masks.occlusion[1], front)
+    # painted regions are the user's layers: where they overlap they stack (three local layers), after refining too
+    assert masks.nest_groups == [0, 0]
+    from ops.segmentation.refine import refine_masks
+
+    assert refine_masks(masks, np.zeros((0, 2)), pose, skeleton).nest_groups == [0, 0]
+    # predicted regions stack with none unless a crossing split them
+    assert all(g == -1 for g in build_masks(drawing, pose, skeleton).nest_groups)
 
 
 def test_manual_mask_of_wrong_size_is_a_shot_error():
