@@ -11,6 +11,8 @@ The template stacks them by their front bones' depth (ops.geometry.template) and
 """
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from ops.segmentation.bones import bone_depths, thick_regions
@@ -33,7 +35,7 @@ def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], bod
     depth = bone_depths(pose, skeleton)
     adjacent = skeleton.adjacent_bones()
     limbs = _limbs(skeleton)
-    chained = _chained(skeleton) | ~(limbs[:, None] & limbs[None, :]) | ~_mirrored(skeleton)  # twin limbs only
+    chained = _chained(skeleton) | ~(limbs[:, None] & limbs[None, :]) | ~_twins(skeleton)  # twin limbs only
     min_px = MIN_CROSSING_PX * scale_of(body.shape) ** 2
     out_r, out_f, out_g, notes = [], [], [], []
     queue = [(r, f, -1) for r, f in zip(regions, fronts)]
@@ -103,6 +105,31 @@ def _limbs(skeleton: Skeleton) -> np.ndarray:
         if parents[j] >= 0 and forks_below[j]:
             forks_below[parents[j]] = True
     return np.array([not forks_below[int(c)] for _, c in np.asarray(skeleton.bones)], bool)
+
+
+_SIDE = re.compile(r"(?<![a-z])(left|right|l|r)(?![a-z])|left|right")  # a side token in a lower-cased name
+
+
+def _twins(skeleton: Skeleton) -> np.ndarray:
+    """(B, B) bool: bone pairs that are the same limb of two sides: as far below the joint where their branches
+    part (the two forearms, not an upper arm and a thigh), and named alike but for the side (l_hand, r_hand;
+    left_elbow, right_elbow), or where no joint names a side, with as many joints below them. A thigh and a
+    tail's segment can sit as far below the root and hold as many joints: their names tell them apart."""
+    names = [n.lower() for n in skeleton.joints]
+    sided = any(_SIDE.search(n) for n in names)
+    parents = np.asarray(skeleton.parents)
+    below = np.ones(len(parents), np.int64)
+    for j in range(len(parents) - 1, 0, -1):  # joints come after their parents
+        if parents[j] >= 0:
+            below[parents[j]] += below[j]
+    child = [int(c) for _, c in np.asarray(skeleton.bones)]
+    if sided:
+        stem = [_SIDE.sub("#", names[c]) for c in child]
+        alike = np.array([[stem[a] == stem[b] and names[child[a]] != names[child[b]] for b in range(len(child))]
+                          for a in range(len(child))], bool)
+    else:
+        alike = below[child][:, None] == below[child][None, :]
+    return _mirrored(skeleton) & alike
 
 
 def _mirrored(skeleton: Skeleton) -> np.ndarray:
