@@ -145,7 +145,9 @@ def _textured(s: int, k: int):
         counts = np.bincount(textured.face_source, minlength=3)
         meta = {"faces_from_drawing": int(counts[0]), "faces_from_other_key": int(counts[1]),
                 "faces_inpainted": int(counts[2]), "inpainted_px": int(textured.back_inpainted.sum()),
+                "back_levels": textured.back_texture.shape[1] // max(textured.texture.shape[1], 1),
                 "energy_to_other_pose": energy}
+        # one back texture per back level, side by side (three local layers: two hidden layers at one pixel)
         img = preview.side_by_side([textured.texture, textured.back_texture], ["front layer", "pockets (back)"])
         return StageResult(textured, meta, img)
 

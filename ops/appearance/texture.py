@@ -100,9 +100,8 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     the template deformed to the other keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at
     the keyframe shows the drawing). No other keyframe (None, a one-drawing shot): every hidden face is inpainted.
 
-    The hidden faces of each back level (drawing_faces) get a back texture of their own, side by side in
+    The hidden faces of each back level (stack_ranks) get a back texture of their own, side by side in
     TexturedTemplate.back_texture: level l's rest pixel (x, y) is its pixel (x + l W, y)."""
-    shape = own.foreground.shape
     texture = character_rgba(own)
     level = stack_ranks(template, weights, pose) - 1  # -1: shows the drawing
     face_source = np.where(level < 0, 0, 1).astype(np.int64)

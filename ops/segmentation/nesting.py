@@ -17,6 +17,7 @@ import numpy as np
 
 from ops.segmentation.bones import bone_depths, thick_regions
 from ops.segmentation.contacts import scale_of
+from ops.segmentation.occlusion_pairs import bone_name
 from ops.types import Skeleton
 
 MIN_CROSSING_PX = 40  # at the reference size: two front bones' bodies meeting on less inside a region only touch
@@ -58,9 +59,10 @@ def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], bod
         out_f.append(np.asarray([low], np.int64))
         out_g.append(group)
         queue.insert(0, (rest, rest_front, group))  # the rest may hold another crossing (three forearms: a puppet's)
-        notes.append(f"occlusion: bones {_name(skeleton, top)} and {_name(skeleton, low)} cross in front of the "
-                     f"body on {int((lower & thick[top]).sum())} px: three local layers there ({_name(skeleton, top)} "
-                     f"over {_name(skeleton, low)} over what they cover)")
+        top_name, low_name = bone_name(skeleton, top), bone_name(skeleton, low)
+        notes.append(f"occlusion: bones {top_name} and {low_name} cross in front of the body on "
+                     f"{int((lower & thick[top]).sum())} px: three local layers there ({top_name} over {low_name} "
+                     "over what they cover)")
     return out_r, out_f, out_g, notes
 
 
@@ -172,9 +174,3 @@ def _chained(skeleton: Skeleton) -> np.ndarray:
         for b in range(B):
             out[a, b] = int(bones[a][1]) in above[b] or int(bones[b][1]) in above[a]
     return out
-
-
-def _name(skeleton: Skeleton, b: int) -> str:
-    """Readable name of bone b, e.g. 'elbow-hand'."""
-    p, c = skeleton.bones[b]
-    return f"{skeleton.joints[p]}-{skeleton.joints[c]}"
