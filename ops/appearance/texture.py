@@ -73,6 +73,8 @@ def stack_ranks(template: Template, weights: np.ndarray, pose: np.ndarray) -> np
     rank = np.empty(len(F), np.int64)
     rank[order] = np.arange(len(order)) - start  # 0 = in front
     return rank
+
+
 def _back_samples(template: Template, back: np.ndarray, deformed_to_other: np.ndarray, shape: tuple[int, int]):
     """Hidden faces `back` (k,) rasterized at rest -> (ids (H, W) int32, qx, qy (H, W) float32 in the other keyframe)."""
     ids = rasterize_ids(template.rest, template.faces, back, shape, 1)

@@ -12,9 +12,9 @@ sheet if its bone is one of the region's front bones, otherwise on the pocket.
 
 Three local layers: where two regions of one nest group overlap (both forearms folded over the chest: the top
 forearm's region covers the lower forearm and the chest, the lower forearm's the chest, and the two share the
-crossing; ops.segmentation.nesting), the regions are stacked front to back by their front bones' depth, and each region's pocket copies the bottom-most
-copy of each of its faces so far (ops.geometry.topology.incise). A handle descends through the stack to the
-first region whose front bones hold its bone.
+crossing; ops.segmentation.nesting), the regions are stacked front to back by their front bones' depth, and
+each region's pocket copies the bottom-most copy of each of its faces so far (ops.geometry.topology.incise). A
+handle descends through the stack to the first region whose front bones hold its bone.
 """
 from __future__ import annotations
 
