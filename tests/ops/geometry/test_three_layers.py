@@ -10,6 +10,7 @@ from ops.appearance.lane import texture_lane
 from ops.appearance.render import Renderer
 from ops.geometry.deform import Deformer, count_flipped
 from ops.geometry.mesh import boundary_loops, vertex_components
+from ops.geometry.polygon import points_in_polygon
 from ops.geometry.template import build_template
 from ops.geometry.topology import alternating, incise, optimize_topology
 from ops.types import RefinedMasks, Skeleton
@@ -30,7 +31,8 @@ def folded_arms(order=("left", "right")):
     pose1[4, :2] = [100.0, 88.0]  # the left hand down beside the right hip... of the drawing: the arms part
     pose1[7, :2] = [28.0, 88.0]
     torso = capsule(pose0[0, :2], pose0[1, :2], 34, 4)
-    arms = {"left": capsule(pose0[3, :2], pose0[4, :2], 6, 2), "right": capsule(pose0[6, :2], pose0[7, :2], 6, 2)}
+    arms = {"left": _dense(capsule(pose0[3, :2], pose0[4, :2], 6, 2)),
+            "right": _dense(capsule(pose0[6, :2], pose0[7, :2], 6, 2))}
     bones = {"left": L_FOREARM, "right": R_FOREARM}
     shape = (128, 128)
 
@@ -48,6 +50,15 @@ def folded_arms(order=("left", "right")):
         nest_groups=[0, 0],  # one stack, as nesting (or two painted masks) says
     )
     return refined, sk, pose0, pose1
+
+
+def _dense(P, step=3.0):
+    """The closed polyline P (n, 2) with vertices at most `step` px apart along its edges (T-junctions are vertices)."""
+    out = []
+    for a, b in zip(P, np.roll(P, -1, axis=0)):
+        k = max(int(np.ceil(np.linalg.norm(b - a) / step)), 1)
+        out.append(a + np.arange(k)[:, None] / k * (b - a))
+    return np.concatenate(out)
 
 
 def _colours(fg, left, right):
@@ -137,3 +148,28 @@ def test_the_arms_part_without_folds_and_the_chest_shows_where_they_crossed(uncr
     assert np.abs(patch[..., :3] - 0.6).max() < 0.15
     # two hidden sheets lie at the crossing's rest pixels: two back levels, side by side
     assert textured.back_texture.shape[1] == 2 * 128 and textured.back_level.max() == 1
+
+
+def test_t_junctions_where_the_lower_forearm_passes_under_the_top_one():
+    """Switch vertices of the nested region lie in the top region's pocket: each of its cuts incises without a fold
+    or an edge of three faces, and the searched template parts the arms without a fold."""
+    refined, sk, pose0, pose1 = folded_arms()
+    under = points_in_polygon(refined.boundaries[1], refined.boundaries[0])  # the right forearm's outline under
+    ends = np.flatnonzero(under & ~np.roll(under, 1)), np.flatnonzero(under & ~np.roll(under, -1))  # the left's
+    refined.junctions[1] = np.sort(np.concatenate(ends))
+    assert len(refined.junctions[1]) == 4
+    base = build_template(refined, pose0, sk)
+    for top in (0, 1):
+        for low in (0, 1):
+            inc = incise(base, [alternating(np.zeros(0, np.int64), top), alternating(base.junctions[1], low)])
+            assert count_flipped(inc.rest, inc.faces) == 0 and inc.warnings == []
+            # at each T-junction (inside the top forearm's area) the lower region's pocket (layer 2) is sewn to
+            # the level above it there, the top one's pocket (layer 1): one vertex both use
+            for p in base.V[base.boundary_vertex[1][base.junctions[1]]]:
+                at = np.flatnonzero(np.linalg.norm(inc.rest - p, axis=1) < 1e-9)
+                layers_of = [set(inc.face_layer[np.isin(inc.faces, v).any(axis=1)].tolist()) for v in at]
+                assert any({1, 2} <= s for s in layers_of)
+    tpl = optimize_topology(refined, pose0, pose1, sk)
+    x = Deformer(tpl.rest, tpl.faces, tpl.handles).solve(tpl.handle_targets(pose1)).x
+    assert np.isfinite(tpl.energy) and count_flipped(x, tpl.faces) == 0
+    assert [c.tolist() for c in tpl.cut_switches][1] == refined.junctions[1].tolist()
