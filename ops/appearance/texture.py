@@ -18,11 +18,13 @@ from scipy import ndimage
 from ops.appearance.inpaint import Inpainter, inpaint
 from ops.appearance.layers import layer_depth, layer_groups, rest_stacks
 from ops.appearance.render import affine_maps, rasterize_ids
+from ops.geometry.mesh import vertex_components
 from ops.types import RefinedMasks, Template, TexturedTemplate
 
 VISIBLE_FRACTION = 0.5  # a pocket face takes the other keyframe's texture if this much of it is visible there
 SAMPLES_PER_SIDE = 4  # k: a face's visibility is measured at the k*k centroids of its regular subdivision
 MARGIN = 3  # pixels: back texture extended past the pockets so bilinear samples at their edges stay opaque
+SHEET_EDGE_PX = 2  # a sheet's pixels this near its edge are not what its hidden stretch is inpainted from
 
 
 def subdivision_barycentrics(k: int) -> np.ndarray:
@@ -110,15 +112,52 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     back_level = np.maximum(level, 0)
     backs, inpainted = [], []
     context = texture  # what a level's holes are inpainted from: the drawing, under it the levels above
+    nested = np.bincount(rest_stacks(template))[rest_stacks(template)] >= 3  # (m,) faces of a three-layer stack
+    sheet = vertex_components(len(template.rest), template.faces)[template.faces[:, 0]]
     for lv in range(max(int(level.max()) + 1, 1)):
         b, i = _back_layer(template, np.flatnonzero(level == lv), face_source, context, other, deformed_to_other,
                            inpainter)
+        if nested.any():
+            _inpaint_by_sheet(template, np.flatnonzero((level == lv) & nested), sheet, level, b, i, backs, texture,
+                              inpainter)
         backs.append(b)
         inpainted.append(i)
         # the chest under both crossed forearms continues the chest under each one, not the forearms' ink
         context = np.where((b[..., 3] > 0)[..., None], b, context)
     return TexturedTemplate(template, weights, face_source, texture, np.concatenate(backs, axis=1),
                             np.concatenate(inpainted, axis=1), back_level)
+
+
+def _inpaint_by_sheet(template: Template, faces: np.ndarray, sheet: np.ndarray, level: np.ndarray, back: np.ndarray,
+                      inpainted: np.ndarray, above: list[np.ndarray], texture: np.ndarray, inpainter: Inpainter):
+    """Refill, in place, the inpainted pixels of hidden faces (k,) of a three-layer stack in one back level's
+    texture back (H, W, 4) and inpainted (H, W) bool, each sheet (a connected piece of the mesh, sheet (m,)) from
+    what that sheet shows elsewhere: the drawing where it is in front (level (m,) -1), the levels above
+    (`above`, (H, W, 4) each) where it is hidden. The lower forearm's stretch under the top one is then the
+    forearm's colour, not the chest's or the top forearm's around it."""
+    shape = texture.shape[:2]
+    ids = rasterize_ids(template.rest, template.faces, faces, shape, 1)
+    for s in np.unique(sheet[faces]):
+        hole = (ids >= 0) & (sheet[np.maximum(ids, 0)] == s) & inpainted
+        if not hole.any():
+            continue
+        own = np.flatnonzero((sheet == s) & (level < 0))
+        known = np.zeros(shape, bool)
+        image = np.zeros(shape + (3,), np.float32)
+        cover = np.zeros(shape, np.float32)
+        shown = rasterize_ids(template.rest, template.faces, own, shape, 1) >= 0
+        image[shown], cover[shown], known[shown] = texture[shown][:, :3], texture[shown][:, 3], True
+        for lv, b in enumerate(above):
+            hidden = np.flatnonzero((sheet == s) & (level == lv))
+            there = (rasterize_ids(template.rest, template.faces, hidden, shape, 1) >= 0) & (b[..., 3] > 0) & ~known
+            image[there], cover[there], known[there] = b[there][:, :3], b[there][:, 3], True
+        # the pixels along the sheet's edge hold the ink of whatever covers it there (the top forearm's outline
+        # where the lower one passes under it): inpainted from them, the stretch would take that ink's colour
+        known &= cv2.erode(known.astype(np.uint8), np.ones((3, 3), np.uint8), iterations=SHEET_EDGE_PX) > 0
+        if not known.any():
+            continue  # a sheet shown nowhere: the level's own inpainting stands
+        filled = inpaint(inpainter, image, ~known, cover)
+        back[hole, :3] = filled[hole]
 
 
 def _back_layer(template: Template, hidden: np.ndarray, face_source: np.ndarray, texture: np.ndarray,

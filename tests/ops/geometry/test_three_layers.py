@@ -146,6 +146,11 @@ def test_the_arms_part_without_folds_and_the_chest_shows_where_they_crossed(uncr
     patch = rgba[cy - 2:cy + 3, cx - 2:cx + 3]
     assert (patch[..., 3] > 0.99).all()
     assert np.abs(patch[..., :3] - 0.6).max() < 0.15
+    # the right forearm's stretch that lay under the left one is the right forearm's blue, not the chest's grey
+    # around the crossing nor the left forearm's red: inpainted from what its own sheet shows
+    mid = np.round((pose1[6, :2] + pose1[7, :2]) / 2).astype(int)  # its midpoint, the crossing's at rest
+    colour = rgba[mid[1] - 1:mid[1] + 2, mid[0] - 1:mid[0] + 2, :3].reshape(-1, 3).mean(axis=0)
+    assert np.abs(colour - [0.2, 0.3, 0.9]).max() < 0.15, colour
     # two hidden sheets lie at the crossing's rest pixels: two back levels, side by side
     assert textured.back_texture.shape[1] == 2 * 128 and textured.back_level.max() == 1
 
