@@ -63,7 +63,7 @@ from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import TemplateBase, build_template
 from ops.geometry.warmstart import transfer_positions
 from ops.shotio.interpolate import interpolate_pose
-from ops.types import RefinedMasks, Skeleton, Template, handle_targets
+from ops.types import RefinedMasks, Skeleton, Template, handle_targets, nest_group_list
 
 PATH_STEPS = 4  # over the samples' topologies 2-4 steps reach the same energies; 4 takes the fewest iterations
 WARM_START_LIMIT = 3.0  # a carried-over start above this multiple of its neighbour's energy: solved from rest
@@ -462,15 +462,20 @@ def region_key(refined: RefinedMasks, r: int, pose_self: np.ndarray, targets: li
                solver: Solver, implied_cuts: bool = True) -> str:
     """Digest (24 hex) of what region r's cut search reads: its boundary polyline (pixels, to 1e-6), its
     T-junction indices and front bones, the key's pose and every target pose, the template mode, the solver's
-    settings, and for a region without T-junctions whether its implied cut is tried and its mask (which the
-    implied cut reads)."""
+    settings, for a region without T-junctions whether its implied cut is tried and its mask (which the
+    implied cut reads), and for a region of a nest group (three local layers) the boundaries and front bones of
+    the group's other regions, which decide the level its pocket is made at."""
     h = hashlib.sha256()
     junctions = np.unique(np.asarray(refined.junctions[r], np.int64))
     implied = implied_cuts and len(junctions) == 0
+    groups = nest_group_list(refined.nest_groups, len(refined.boundaries))
+    partners = [q for q in range(len(groups)) if q != r and groups[r] >= 0 and groups[q] == groups[r]]
     for a in (np.round(np.asarray(refined.boundaries[r], np.float64), 6), junctions,
               np.asarray(refined.front_bones[r], np.int64), np.asarray(pose_self, np.float64),
               *(np.asarray(t, np.float64) for t in targets),
-              *((np.packbits(refined.occlusion[r]), np.packbits(refined.foreground)) if implied else ())):
+              *((np.packbits(refined.occlusion[r]), np.packbits(refined.foreground)) if implied else ()),
+              *(part for q in partners for part in (np.round(np.asarray(refined.boundaries[q], np.float64), 6),
+                                                      np.asarray(refined.front_bones[q], np.int64)))):
         h.update(str(a.shape).encode())
         h.update(np.ascontiguousarray(a).tobytes())
     h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS)

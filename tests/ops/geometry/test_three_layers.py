@@ -1,6 +1,8 @@
 """Three local layers (issue 27): both forearms folded over the chest in an X. The top forearm's region covers the
 lower forearm and the chest, the lower forearm's covers the chest, and the two regions share the crossing, where
 three sheets lie on each other at rest: the top forearm, the lower forearm, the chest."""
+import copy
+
 import cv2
 import numpy as np
 import pytest
@@ -12,7 +14,7 @@ from ops.geometry.deform import Deformer, count_flipped
 from ops.geometry.mesh import boundary_loops, vertex_components
 from ops.geometry.polygon import points_in_polygon
 from ops.geometry.template import build_template
-from ops.geometry.topology import alternating, incise, optimize_topology
+from ops.geometry.topology import Solver, alternating, incise, optimize_topology, region_key
 from ops.types import RefinedMasks, Skeleton
 from tests.ops.geometry.test_template import capsule
 
@@ -178,3 +180,17 @@ def test_t_junctions_where_the_lower_forearm_passes_under_the_top_one():
     x = Deformer(tpl.rest, tpl.faces, tpl.handles).solve(tpl.handle_targets(pose1)).x
     assert np.isfinite(tpl.energy) and count_flipped(x, tpl.faces) == 0
     assert [c.tolist() for c in tpl.cut_switches][1] == refined.junctions[1].tolist()
+
+
+def test_a_nested_regions_kept_cut_is_searched_again_when_its_partner_changes():
+    """region_key reads the other regions of a nest group (they decide the level a pocket is made at); a region of
+    no group keeps the key it had."""
+    refined, sk, pose0, pose1 = folded_arms()
+    keys = [region_key(refined, r, pose0, [pose1], "optimized", Solver()) for r in range(2)]
+    moved = copy.deepcopy(refined)
+    moved.boundaries[1] = moved.boundaries[1] + [1.0, 0.0]  # the lower forearm's outline one pixel over
+    assert region_key(moved, 0, pose0, [pose1], "optimized", Solver()) != keys[0]
+    assert region_key(moved, 1, pose0, [pose1], "optimized", Solver()) != keys[1]
+    refined.nest_groups, moved.nest_groups = [-1, -1], [-1, -1]
+    assert region_key(refined, 0, pose0, [pose1], "optimized", Solver()) == \
+        region_key(moved, 0, pose0, [pose1], "optimized", Solver())
