@@ -18,19 +18,16 @@ def region_of_front_faces(template: Template) -> np.ndarray:
     face belongs to region r when a layer r + 1 face has its rest centroid. Where regions are nested (three
     local layers) the face belongs to the region stacked first, whose pocket was made first.
     """
-    F, layer = template.faces, template.face_layer
-    key = np.round(template.rest[F].mean(axis=1) * 1e4).astype(np.int64)
+    layer = template.face_layer
     pocket = layer > 0
-    out = np.full(len(F), -1, np.int64)
+    out = np.full(len(layer), -1, np.int64)
     if not pocket.any():
         return out
-    keys, inverse = np.unique(np.concatenate([key[pocket], key[~pocket]]), axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    region_of = np.full(len(keys), -1, np.int64)
-    n_pocket = int(pocket.sum())
+    stack = rest_stacks(template)
+    region_of = np.full(int(stack.max()) + 1, -1, np.int64)
     last_first = slice(None, None, -1)  # pockets are appended front to back: written last, the first one wins
-    region_of[inverse[:n_pocket][last_first]] = (layer[pocket] - 1)[last_first]
-    out[~pocket] = region_of[inverse[n_pocket:]]
+    region_of[stack[pocket][last_first]] = (layer[pocket] - 1)[last_first]
+    out[~pocket] = region_of[stack[~pocket]]
     return out
 
 

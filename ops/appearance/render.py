@@ -203,7 +203,8 @@ class Renderer:
         self.textured = textured
         self.front = premultiply(textured.texture)
         self.back = premultiply(textured.back_texture)
-        self.back_offset = textured.back_offset()  # (m,) x of each face's back level in back_texture
+        offset = textured.back_offset()  # (m,) x of each face's back level in back_texture; None: all at level 0
+        self.back_offset = offset if offset.any() else None
         self.groups = layer_groups(textured.template)
         tpl = textured.template
         self.sheet = tpl.face_layer == 0  # (m,) the front sheet's faces
@@ -244,7 +245,7 @@ class Renderer:
             ys, xs, f, bx, by = ys[apart], xs[apart], f[apart], bx[apart], by[apart]
             back = self.textured.face_source[f] > 0
             below = np.zeros((len(ys), 4), np.float32)
-            bx_back = bx + self.back_offset[f]
+            bx_back = bx if self.back_offset is None else bx + self.back_offset[f]
             for texture, pick, x in ((self.front, ~back, bx), (self.back, back, bx_back)):
                 if pick.any():  # a (1, k) map samples just these points
                     below[pick] = cv2.remap(texture, x[pick][None], by[pick][None], **_REMAP)[0]
@@ -260,9 +261,12 @@ class Renderer:
         # so the two premultiplied results add up to the composite
         off = np.float32(-1e4)
         pre = cv2.remap(self.front, np.where(hidden, off, map_x), map_y, **_REMAP)
-        back_x = map_x + self.back_offset.take(np.maximum(ids, 0))  # each hidden face's back level
-        pre += cv2.remap(self.back, np.where(hidden, back_x, off), map_y, **_REMAP)
+        pre += cv2.remap(self.back, np.where(hidden, self._back_x(map_x, ids), off), map_y, **_REMAP)
         return pre, map_x, map_y, hidden
+
+    def _back_x(self, map_x: np.ndarray, ids: np.ndarray) -> np.ndarray:
+        """The back map's x (h*s, w*s) moved to each face's back level in back_texture (as is without levels)."""
+        return map_x if self.back_offset is None else map_x + self.back_offset.take(np.maximum(ids, 0))
 
     def frame(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
               supersample: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -284,7 +288,7 @@ class Renderer:
         """A window's samples -> its (rgba, inpainted, distorted) pixels, as frame() returns them."""
         rgba = unpremultiply(downsample(pre, s))
         bh, bw = self.textured.back_inpainted.shape
-        cx = np.clip(np.rint(map_x + self.back_offset.take(np.maximum(ids, 0))).astype(np.int64), 0, bw - 1)
+        cx = np.clip(np.rint(self._back_x(map_x, ids)).astype(np.int64), 0, bw - 1)
         cy = np.clip(np.rint(map_y).astype(np.int64), 0, bh - 1)
         # source-1 faces may hold inpainted pixels too (samples invisible in the other keyframe)
         filled = hidden & self.textured.back_inpainted[cy, cx]

@@ -56,7 +56,8 @@ def drawing_faces(template: Template, weights: np.ndarray, pose: np.ndarray) -> 
     return stack_ranks(template, weights, pose) == 0
 
 
-def stack_ranks(template: Template, weights: np.ndarray, pose: np.ndarray) -> np.ndarray:
+def stack_ranks(template: Template, weights: np.ndarray, pose: np.ndarray, stack: np.ndarray | None = None
+                ) -> np.ndarray:
     """(m,) int64 each face's place front to back among the faces on it at rest, at the keyframe's pose (J, 3):
     0 shows the drawing, 1 + l is back level l.
 
@@ -64,11 +65,11 @@ def stack_ranks(template: Template, weights: np.ndarray, pose: np.ndarray) -> np
     where regions are nested), the one of the layer with the smallest bounded biharmonic depth averaged over
     the layer is in front (§5.1; a tie goes to the front sheet): it shows the drawing. The hidden ones are
     numbered front to back: each level has a back texture of its own, since two hidden layers can lie at one
-    rest pixel. Outside the regions the front sheet shows it.
+    rest pixel. Outside the regions the front sheet shows it. stack: rest_stacks(template), when the caller has it.
     """
     F, layer = template.faces, template.face_layer
     depth = layer_depth((weights @ np.asarray(pose, np.float64)[:, 2])[F].mean(axis=1), layer_groups(template))
-    stack = rest_stacks(template)
+    stack = rest_stacks(template) if stack is None else stack
     order = np.lexsort((layer, depth, stack))  # by stack, then front to back
     first = np.r_[True, stack[order][1:] != stack[order][:-1]]
     start = np.maximum.accumulate(np.where(first, np.arange(len(order)), 0))
@@ -107,13 +108,14 @@ def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks,
     The hidden faces of each back level (stack_ranks) get a back texture of their own, side by side in
     TexturedTemplate.back_texture: level l's rest pixel (x, y) is its pixel (x + l W, y)."""
     texture = character_rgba(own)
-    level = stack_ranks(template, weights, pose) - 1  # -1: shows the drawing
+    stack = rest_stacks(template)
+    level = stack_ranks(template, weights, pose, stack) - 1  # -1: shows the drawing
     face_source = np.where(level < 0, 0, 1).astype(np.int64)
     back_level = np.maximum(level, 0)
     backs, inpainted = [], []
     context = texture  # what a level's holes are inpainted from: the drawing, under it the levels above
-    nested = np.bincount(rest_stacks(template))[rest_stacks(template)] >= 3  # (m,) faces of a three-layer stack
-    sheet = vertex_components(len(template.rest), template.faces)[template.faces[:, 0]]
+    nested = np.bincount(stack)[stack] >= 3  # (m,) faces of a three-layer stack
+    sheet = vertex_components(len(template.rest), template.faces)[template.faces[:, 0]] if nested.any() else None
     for lv in range(max(int(level.max()) + 1, 1)):
         b, i = _back_layer(template, np.flatnonzero(level == lv), face_source, context, other, deformed_to_other,
                            inpainter)

@@ -159,17 +159,12 @@ def incise(base: TemplateBase, assignments: list[Assignment]) -> Incised:
     bottom = np.arange(len(F))  # per base face, its bottom-most copy so far
     origin = np.arange(len(V))  # per vertex, the base vertex it copies
     R = base.n_regions
-    members = base.region_faces if len(base.region_faces) == R else \
-        [np.flatnonzero(base.face_region == r) for r in range(R)]
-    stack = base.stack if len(base.stack) == R else np.arange(R)
-    nested = base.nested if base.nested.shape == (R, R) else np.zeros((R, R), bool)
-    through = base.handle_regions if base.handle_regions.shape == (len(base.handle_vertex), R) else \
-        (base.handle_layer[:, None] == np.arange(1, R + 1)[None])
+    members, nested, through = base.region_faces, base.nested, base.handle_regions
     handles = base.handle_vertex.copy()
     warnings: list[str] = []
     switches: list[np.ndarray] = []
     upper: list[np.ndarray] = [np.zeros(0, np.int64)] * R
-    for r in stack:
+    for r in base.stack:
         a = assignments[r]
         cur = bottom[members[r]]
         in_r = np.zeros(len(F), bool)

@@ -36,14 +36,14 @@ def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], bod
     depth = bone_depths(pose, skeleton)
     adjacent = skeleton.adjacent_bones()
     limbs = _limbs(skeleton)
-    chained = _chained(skeleton) | ~(limbs[:, None] & limbs[None, :]) | ~_twins(skeleton)  # twin limbs only
+    apart = ~(limbs[:, None] & limbs[None, :] & _twins(skeleton))  # pairs that cannot cross: twin limbs only
     min_px = MIN_CROSSING_PX * scale_of(body.shape) ** 2
     out_r, out_f, out_g, notes = [], [], [], []
     queue = [(r, f, -1) for r, f in zip(regions, fronts)]
     groups = 0
     while queue:
         region, front, group = queue.pop(0)
-        crossing = _crossing(region, front, thick, depth, adjacent, chained, min_px)
+        crossing = _crossing(region, front, thick, depth, adjacent, apart, min_px)
         if crossing is None:
             out_r.append(region)
             out_f.append(front)
@@ -67,22 +67,22 @@ def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], bod
 
 
 def _crossing(region: np.ndarray, front: np.ndarray, thick: np.ndarray, depth: np.ndarray, adjacent: np.ndarray,
-              chained: np.ndarray, min_px: float) -> tuple[int, int] | None:
+              apart: np.ndarray, min_px: float) -> tuple[int, int] | None:
     """(top, low) bones of the largest crossing of two of a region's front bones in it, or None.
 
     A crossing is where twin limbs of two branches of the skeleton (the two forearms) both lie over a third
-    body, farther than both and joined to neither (the chest under two forearms). chained: (B, B) bool pairs
-    that cannot cross: one bone an ancestor of the other (a thigh and its own foot are one limb), one of them no
-    limb (a spine or a hip bone, below which the skeleton forks: a near thigh over the torso's bone in a side
-    view is the thigh over the body, one overlap), or no twins (an arm hanging over the near thigh: nested,
-    r03-r05 of the held-out redrawn set lost 0.3-1.4 dB, the folded arms gained 0.03-0.3). As for the occlusion rule's
+    body, farther than both and joined to neither (the chest under two forearms). apart: (B, B) bool pairs
+    that cannot cross: one of them no limb (a spine or a hip bone, below which the skeleton forks: a near thigh
+    over the torso's bone in a side view is the thigh over the body, one overlap), or no twins (a thigh and its
+    own foot are one limb; an arm hanging over the near thigh: nested, r03-r05 of the held-out redrawn set lost
+    0.3-1.4 dB, the folded arms gained 0.03-0.3). As for the occlusion rule's
     pairs, bones joined through one short bone (spine - clavicle - upper arm) meet around it, and that bone's
     body is no crossing."""
     best, where = None, 0
     front = [int(b) for b in front]
     for i, a in enumerate(front):
         for b in front[i + 1:]:
-            if adjacent[a, b] or chained[a, b] or np.isclose(depth[a], depth[b]):
+            if adjacent[a, b] or apart[a, b] or np.isclose(depth[a], depth[b]):
                 continue
             between = adjacent[a] & adjacent[b]
             beneath = (depth > max(depth[a], depth[b])) & ~adjacent[a] & ~adjacent[b]
@@ -136,7 +136,8 @@ def _twins(skeleton: Skeleton) -> np.ndarray:
 
 def _mirrored(skeleton: Skeleton) -> np.ndarray:
     """(B, B) bool: bone pairs as far below the joint where their branches part (the two forearms, the two
-    shins), not an upper arm and a thigh."""
+    shins), not an upper arm and a thigh, nor two bones of one limb (the upper one's child joint is where they
+    part: none of its steps against the lower one's)."""
     parents = np.asarray(skeleton.parents)
 
     def path(j: int) -> list[int]:  # the joint and its ancestors, root last
@@ -154,23 +155,4 @@ def _mirrored(skeleton: Skeleton) -> np.ndarray:
             below_a = next(i for i, j in enumerate(paths[a]) if j in common)  # steps up to the parting joint
             below_b = paths[b].index(paths[a][below_a])
             out[a, b] = below_a == below_b
-    return out
-
-
-def _chained(skeleton: Skeleton) -> np.ndarray:
-    """(B, B) bool: bone pairs of which one lies on the other's path to the root (the same limb)."""
-    bones = np.asarray(skeleton.bones)
-    parents = np.asarray(skeleton.parents)
-    above = []  # per bone, the joints from its parent joint up to the root
-    for p, _ in bones:
-        path, j = set(), int(p)
-        while j >= 0:
-            path.add(j)
-            j = int(parents[j])
-        above.append(path)
-    B = len(bones)
-    out = np.zeros((B, B), bool)
-    for a in range(B):
-        for b in range(B):
-            out[a, b] = int(bones[a][1]) in above[b] or int(bones[b][1]) in above[a]
     return out
