@@ -218,3 +218,40 @@ def test_a_region_in_pieces_without_clicks_becomes_one_region_per_piece():
     alone = refine_masks(masks, np.zeros((0, 2)), pose, skeleton)
     assert len(alone.occlusion) == 1 and any("has 2 pieces: the 1 under 12 px left out" in w for w in alone.warnings)
     assert not (alone.occlusion[0] & speck).any()
+
+
+def test_an_arm_a_pixel_or_two_beside_the_body_is_slit_free_of_it():
+    """The paper between an arm and the body, which the mesh's margin closes over, is slit (domain.glued_gaps):
+    the slit runs down the gap and out to the outline, no mesh edge crosses the gap, and when the arm swings
+    out the body's side stays where it is."""
+    from ops.geometry.deform import Deformer
+    from ops.geometry.template import build_template
+    from ops.types import Masks, handle_targets
+    from tests.ops.segmentation.test_domain import arm_beside_body
+
+    fg, between = arm_beside_body(2)
+    cov = fg.astype(np.float32)
+    masks = Masks(foreground=fg, occlusion=[], front_bones=[], source="predicted", coverage=cov,
+                  paper=np.ones(fg.shape + (3,), np.float32), colour=np.full(fg.shape + (3,), 0.5, np.float32),
+                  holes=np.zeros_like(fg), n_holes=0)
+    skeleton = Skeleton(joints=("hips", "neck", "shoulder", "hand"), parents=np.array([-1, 0, 1, 2]))
+    pose = np.array([[45.0, 95.0, 0.0], [45.0, 22.0, 0.0], [67.0, 24.0, 0.0], [67.0, 86.0, 0.0]])
+    refined = refine_masks(masks, np.zeros((0, 2)), pose, skeleton)
+    assert len(refined.slits) == 1
+    slit = refined.slits[0]
+    assert slit[:, 1].max() > 88 and np.abs(slit[:, 0] - 60.5).max() <= 2.0  # down the gap, out past the arm's end
+    base = build_template(refined, pose, skeleton)
+    V, F = base.V, base.F
+    edges = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+    a, b = V[edges[:, 0]], V[edges[:, 1]]
+    cx = float(np.median(slit[:, 0]))
+    along = (np.minimum(a[:, 1], b[:, 1]) > 32) & (np.maximum(a[:, 1], b[:, 1]) < 86)  # below the shoulder
+    assert not (along & (np.minimum(a[:, 0], b[:, 0]) < cx - 1e-6) & (np.maximum(a[:, 0], b[:, 0]) > cx + 1e-6)).any()
+    swung = pose.copy()
+    swung[3, :2] = [110.0, 60.0]  # the arm swings out about its shoulder
+    d = Deformer(base.V, base.F, np.asarray(base.handle_vertex))
+    x = d.solve(handle_targets(base.handle_weights, base.handle_offsets, base.handle_frames, swung)).x
+    body = np.zeros(len(V), bool)
+    body[F[V[F].mean(axis=1)[:, 0] < cx].ravel()] = True  # vertices of the faces on the body's side of the slit
+    side = body & (V[:, 0] > cx - 3) & (V[:, 1] > 40) & (V[:, 1] < 80)  # the body's side along the arm
+    assert side.sum() >= 5 and np.linalg.norm(x[side] - V[side], axis=1).max() < 1.5
