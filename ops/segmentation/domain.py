@@ -18,7 +18,6 @@ from ops.geometry.polygon import points_in_polygon, polygon_area, rasterize
 DILATE_PX = 2  # margin of the domain beyond the last pixel with coverage
 DP_EPS_PX = 1.0  # Douglas-Peucker tolerance of the domain outlines (less than the margin)
 MIN_LOOP_AREA_PX = 4.0  # components or holes smaller than this are not meshed
-MIN_GAP_PX = 8  # a glued gap shorter than this (its bounding box's long side) is a corner, not two parts apart
 
 
 def mesh_domain(
@@ -57,27 +56,6 @@ def mesh_domain(
         if is_hole:
             holes.append(seed)
     return loops, np.asarray(holes, np.float64).reshape(-1, 2)
-
-
-def glued_gaps(foreground: np.ndarray, coverage: np.ndarray, holes: np.ndarray | None = None) -> list[np.ndarray]:
-    """Per gap, (H, W) bool paper that the domain's margin closes over between two parts of the character: an
-    arm hanging a pixel or two beside the body, legs drawn just apart. Not holes (enclosed paper keeps its own
-    outline); only gaps whose length reaches MIN_GAP_PX. Glued across such a gap, the mesh drags the body's side
-    along when the arm swings off and crushes the arm into strands: the template is slit along each
-    (ops.segmentation.slits.slit_of), as along the stroke where two bodies touch."""
-    support = np.asarray(foreground, bool) | (np.asarray(coverage) > 0)
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * DILATE_PX + 1,) * 2)
-    pad = DILATE_PX + 1
-    closed = cv2.morphologyEx(np.pad(support.astype(np.uint8), pad), cv2.MORPH_CLOSE, kernel)[pad:-pad, pad:-pad]
-    gaps = (closed > 0) & ~support
-    if holes is not None:
-        gaps &= ~np.asarray(holes, bool)
-    labels, n = ndimage.label(gaps, structure=np.ones((3, 3), bool))
-    out = []
-    for i, box in enumerate(ndimage.find_objects(labels), start=1):
-        if box is not None and max(b.stop - b.start for b in box) >= MIN_GAP_PX:
-            out.append(labels == i)
-    return out
 
 
 def closed_holes(foreground: np.ndarray, coverage: np.ndarray, holes: np.ndarray) -> np.ndarray:

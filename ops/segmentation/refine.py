@@ -23,7 +23,7 @@ from ops.geometry.mesh import boundary_loops, triangulate_pslg
 from ops.geometry.polygon import polygon_area, project_to_polyline, rasterize
 from ops.geometry.snap import snap_into
 from ops.segmentation.contacts import thin_overlaps
-from ops.segmentation.domain import glued_gaps, mesh_domain
+from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
 from ops.segmentation.slits import junction_slits, slit_of
 from ops.types import Masks, RefinedMasks, Skeleton, nest_group_list
@@ -292,8 +292,7 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         nests.append(group)
     domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
     taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
-    slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts + glued_gaps(fg, masks.coverage, masks.holes))
-             if s is not None]
+    slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
     if other_pose is not None:  # the other keyframe tells which parts leave the bodies they cross
         touching = np.any(masks.contacts, axis=0) if masks.contacts else None
         slits += junction_slits(bounds, juncs, fronts, taken, domain, masks.coverage, pose, skeleton, other_pose,

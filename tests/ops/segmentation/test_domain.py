@@ -6,7 +6,7 @@ import numpy as np
 
 from ops.geometry.mesh import points_in_domain
 from ops.geometry.polygon import polygon_area
-from ops.segmentation.domain import closed_holes, glued_gaps, mesh_domain
+from ops.segmentation.domain import closed_holes, mesh_domain
 from ops.segmentation.masks import build_masks
 from ops.shotio.image_io import read_image
 from ops.shotio.load import load_shot
@@ -87,39 +87,3 @@ def test_every_hole_seed_lies_outside_the_simplified_domain():
     masks = build_masks(read_image(shot.keyframes[0]), shot.key_pose(0), shot.skeleton, occlusion="skeleton")
     loops, seeds = mesh_domain(masks.foreground, masks.coverage, masks.holes)
     assert masks.holes.sum() > 0 and not points_in_domain(seeds, loops).any()
-
-
-def arm_beside_body(gap: int = 2):
-    """(120, 120) bool foreground: a torso and an arm hanging `gap` px beside it, joined at the shoulder and open
-    below, as drawn with the arm just off the body; and the paper between them."""
-    fg = np.zeros((120, 120), bool)
-    fg[20:100, 30:60] = True  # torso
-    fg[20:28, 30:73 + gap] = True  # shoulder
-    fg[20:90, 60 + gap:72 + gap] = True  # arm
-    between = np.zeros_like(fg)
-    between[28:90, 60:60 + gap] = True
-    return fg, between
-
-
-def test_paper_the_margin_closes_between_two_parts_is_a_glued_gap():
-    """An arm 2 px beside the body: the domain's 2 px margin closes the paper between them (the mesh would glue
-    the arm to the body), and glued_gaps finds it, whole and alone."""
-    fg, between = arm_beside_body(2)
-    cov = fg.astype(np.float32)
-    loops, _ = mesh_domain(fg, cov)
-    assert points_in_domain(_pixels(between), loops).all()  # the margin has glued it
-    gaps = glued_gaps(fg, cov)
-    assert len(gaps) == 1 and (gaps[0] & between).sum() == between.sum()
-    assert not (gaps[0] & fg).any() and gaps[0].sum() <= between.sum() + 4  # paper only: at most the mouth's corner
-
-
-def test_no_glued_gap_where_the_margin_leaves_paper_open_or_in_a_hole_or_a_corner():
-    fg, _ = arm_beside_body(6)  # 6 px apart: the margin leaves the paper between them open
-    assert glued_gaps(fg, fg.astype(np.float32)) == []
-    fg, between = arm_beside_body(2)
-    fg[90:100, 60:74] = True  # the hand joins the hip: the paper between them is a hole now, meshed open
-    assert glued_gaps(fg, fg.astype(np.float32), between) == []
-    short = np.zeros((60, 60), bool)
-    short[10:50, 10:30] = True
-    short[10:16, 32:50] = True  # a flag 2 px off a pole for 6 px: a corner, not two parts apart
-    assert glued_gaps(short, short.astype(np.float32)) == []
