@@ -21,14 +21,14 @@ injectivity-capped line search:
   each to the other pose); over the samples' cut searches 4197 -> 3254
   iterations, one near-tie cusp one vertex over (scan_jpeg key0, energies
   within 1e-6).
-  Not the default: its steps are 5-7x dearer, and with the gradient-norm stop
-  it can halt on the flat slope by a saddle that L-BFGS passes (arm_cross
-  key0's last frame: 3.8 px from the minimum, energy 4.7548 against 4.7534;
-  the frames of all samples deformed by it cost arm_cross 0.11 dB), while over
-  the samples' frame sequences it saves a third of the time; the lanes' direct
-  solves from rest to the other key pose land in other crumpled minima with it
-  (docs/performance.md).
-- "lbfgs" (the default: the lanes' frames and direct solves): the
+  The lanes' frames (FRAME_METHOD, deform_sequence), each from its
+  neighbour's solution, stopped at FRAME_GRAD_TOL: with the usual gradient
+  norm of 0.01 it halted on a frame's flat valley short of the minimum L-BFGS
+  reaches (arm_cross key0's last frame: 3.7 px off, energy 4.7548 against
+  4.7534, 0.11 dB in the evaluation; the true Hessian is positive definite
+  there, no saddle). Not the lanes' direct solves from rest to the other key
+  pose: those land in other crumpled minima with it (docs/performance.md).
+- "lbfgs" (Deformer's default: the lanes' direct solves to the other key): the
   Laplacian-preconditioned L-BFGS, whose steps "newton" borrows. The two-loop
   recursion uses the factorized matrix P = 8 (-L) + 2 mu H as initial inverse
   Hessian (L = cotangent Laplacian of the normalized rest mesh, H = handle
@@ -124,6 +124,12 @@ def max_injective_step(X: np.ndarray, D: np.ndarray, faces: np.ndarray) -> float
 
 
 SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut search's), preconditioned L-BFGS
+# A lane's frames: projected Newton, each frame from its neighbour, stopped at a tenth of the usual gradient norm.
+# Near the minimum Newton takes 2-40 steps where L-BFGS takes 10-300, but a frame's minimum may lie in a flat valley
+# (arm_cross key0's last frame: the true Hessian's smallest eigenvalue there 0.21, no saddle), where a gradient norm
+# of 0.01 stops Newton 3.7 px short of L-BFGS's point (energy +1.4e-3, 0.11 dB in the evaluation); at 1e-3 it
+# reaches L-BFGS's energy or a lower one on every sample lane, in 0.44x its CPU time (docs/performance.md).
+FRAME_METHOD, FRAME_GRAD_TOL = "newton", 1e-3
 NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
 MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: 0.3 and 16 keep
 #                   the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
@@ -396,23 +402,27 @@ def _edge_operator(faces: np.ndarray, n: int) -> sp.csr_matrix:
 
 
 def deform_sequence(
-    template: Template, poses: np.ndarray, order: str = "forward", deformer: Deformer | None = None
+    template: Template, poses: np.ndarray, order: str = "forward", deformer: Deformer | None = None,
+    grad_tol: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Deform the template into every pose (T, J, 3), warm-starting each frame from its neighbour.
 
     order "forward" solves t = 0, 1, ... (key0's template); "backward" solves
-    from the last frame down (key1's). Returns X (T, n, 2) pixels, energies
-    (T,), iterations (T,) int64, all in time order.
+    from the last frame down (key1's). deformer: default FRAME_METHOD's;
+    grad_tol: default FRAME_GRAD_TOL for Newton, 0.01 for L-BFGS. Returns X
+    (T, n, 2) pixels, energies (T,), iterations (T,) int64, all in time order.
     """
     if order not in ("forward", "backward"):
         raise ValueError(f"order must be 'forward' or 'backward', got {order!r}")
-    d = deformer or Deformer(template.rest, template.faces, template.handles)
+    d = deformer or Deformer(template.rest, template.faces, template.handles, method=FRAME_METHOD)
+    if grad_tol is None:
+        grad_tol = FRAME_GRAD_TOL if d.method == "newton" else 0.01
     T = len(poses)
     X = np.zeros((T, len(template.rest), 2))
     energies, iters = np.zeros(T), np.zeros(T, np.int64)
     frames = range(T) if order == "forward" else range(T - 1, -1, -1)
     x = None
     for i in frames:
-        res = d.solve(template.handle_targets(poses[i]), x0=x)
+        res = d.solve(template.handle_targets(poses[i]), x0=x, grad_tol=grad_tol)
         X[i], energies[i], iters[i], x = res.x, res.energy, res.iterations, res.x
     return X, energies, iters
