@@ -118,14 +118,20 @@ def test_folded_start_raises():
         Deformer(V, F, h).solve(V[h], x0=X)
 
 
-def test_deform_sequence_orders():
-    V, F, h = strip()
-    J = len(MID)
-    tpl = Template(
+def strip_template(V, F, h) -> Template:
+    """The strip as a single-layer template with one handle per midline point, each its own joint."""
+    J = len(h)
+    return Template(
         rest=V, faces=F, face_layer=np.zeros(len(F), np.int64), handles=h, handle_weights=np.eye(J),
         handle_offsets=np.zeros((J, 2)), handle_frames=np.full((J, 2), -1),
         cut_assignment=[], energy=0.0, trials=1, mode="single-layer",
     )
+
+
+def test_deform_sequence_orders():
+    V, F, h = strip()
+    J = len(MID)
+    tpl = strip_template(V, F, h)
     poses = np.stack([np.concatenate([bend(MID, a), np.zeros((J, 1))], 1) for a in (0, 30, 60)])
     Xf, Ef, If = deform_sequence(tpl, poses, "forward")
     Xb, Eb, Ib = deform_sequence(tpl, poses, "backward")
@@ -146,11 +152,7 @@ def test_frames_by_newton_reach_the_lbfgs_energies_in_fewer_iterations():
     a bend's flat valley."""
     V, F, h = strip()
     J = len(MID)
-    tpl = Template(
-        rest=V, faces=F, face_layer=np.zeros(len(F), np.int64), handles=h, handle_weights=np.eye(J),
-        handle_offsets=np.zeros((J, 2)), handle_frames=np.full((J, 2), -1),
-        cut_assignment=[], energy=0.0, trials=1, mode="single-layer",
-    )
+    tpl = strip_template(V, F, h)
     poses = np.stack([np.concatenate([bend(MID, a), np.zeros((J, 1))], 1) for a in np.linspace(0, 120, 7)])
     X_newton, E_newton, it_newton = deform_sequence(tpl, poses)
     _, E_lbfgs, it_lbfgs = deform_sequence(tpl, poses, deformer=Deformer(V, F, h, method="lbfgs"))
