@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ops.shotio.image_io import write_image
+from ops.shotio.image_io import paper_under_clear, write_image
 
 OCA_VERSION = "1.1.0"
 
@@ -100,8 +100,8 @@ def write_alpha_video(path: str | Path, frames: np.ndarray, fps: float) -> Path:
     try:
         t, h, w = frames.shape[:3]
         for i in range(t):
-            rgba = np.asarray(frames[i], np.float32)
-            rgba = np.pad(rgba, ((0, h % 2), (0, w % 2), (0, 0)))
+            rgba = np.pad(np.asarray(frames[i], np.float32), ((0, h % 2), (0, w % 2), (0, 0)))
+            rgba = paper_under_clear(rgba)
             write_image(work / f"{i:05d}.png", rgba, "uint8")
         tmp = work / f"out{path.suffix}"
         cmd = [imageio_ffmpeg.get_ffmpeg_exe(), "-loglevel", "error", "-y", "-framerate", str(fps),

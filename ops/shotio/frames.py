@@ -15,20 +15,24 @@ from pathlib import Path
 import numpy as np
 
 from ops.shotio.atomic import replace_into
-from ops.shotio.image_io import composite_over_white, to_rgba, write_image
+from ops.shotio.image_io import composite_over_white, paper_under_clear, to_rgba, write_image
 
 
 def write_frames(out_dir: str | Path, frames: np.ndarray, exr: bool = False) -> list[Path]:
-    """frames: (T, H, W, 4) float32 straight alpha -> the written PNG paths out_dir/frames/0000.png ..."""
+    """frames: (T, H, W, 4) float32 straight alpha -> the written PNG paths out_dir/frames/0000.png ...
+
+    Under full transparency every frame carries white (image_io.paper_under_clear): in the PNG where alpha
+    rounds to 0, in the EXR where it is 0."""
     out_dir = Path(out_dir)
     if frames.ndim != 4 or frames.shape[3] != 4:
         raise ValueError(f"frames must be (T, H, W, 4) RGBA, got {frames.shape}")
     pngs = []
     for i in range(frames.shape[0]):  # one frame at a time: frames may be a memmap
         frame = np.asarray(frames[i], dtype=np.float32)
-        pngs.append(write_image(out_dir / "frames" / f"{i:04d}.png", frame, "uint8"))
+        pngs.append(write_image(out_dir / "frames" / f"{i:04d}.png", paper_under_clear(frame), "uint8"))
         if exr:
-            write_image(out_dir / "frames_exr" / f"{i:04d}.exr", frame, "half")
+            clear = paper_under_clear(frame, float(np.finfo(np.float16).smallest_subnormal))  # 0 in half float
+            write_image(out_dir / "frames_exr" / f"{i:04d}.exr", clear, "half")
     return pngs
 
 

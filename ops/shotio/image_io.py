@@ -172,6 +172,17 @@ def composite_over_white(rgba: np.ndarray) -> np.ndarray:
     return rgba[..., :3] * a + (1.0 - a)
 
 
+def paper_under_clear(rgba: np.ndarray, clear_below: float = 0.5 / 255) -> np.ndarray:
+    """(H, W, 4) straight alpha -> a copy whose colour is white (the paper) wherever alpha < clear_below.
+
+    Invisible when composited, but a viewer or tool that drops alpha then shows one steady page: the blends
+    leave black under full transparency, RIFE's frames white, and the keys whatever the scan held. The 8-bit
+    default clears what rounds to alpha 0 in a PNG."""
+    out = np.array(rgba, dtype=np.float32, copy=True)
+    out[out[..., 3] < clear_below, :3] = 1.0
+    return out
+
+
 def write_image(path: str | Path, image: np.ndarray, dtype: str = "uint8") -> Path:
     """Write atomically (temp file + rename); dtype 'uint8' (PNG) or 'half'/'float' (EXR)."""
     path = Path(path)

@@ -104,3 +104,23 @@ def test_contact_sheet_shape_and_path_colours(tmp_path):
     x, y = _cell_origin(0, 2, thumb)
     np.testing.assert_allclose(sheet[y + 5, x - 2], 237 / 255)
     np.testing.assert_allclose(sheet[y + thumb // 2, x + 5], 128 / 255, atol=1e-6)
+
+
+def test_fully_transparent_pixels_carry_the_paper_in_every_frame_and_the_composite_is_unchanged(tmp_path):
+    from ops.shotio.image_io import composite_over_white
+    rng = np.random.default_rng(3)
+    frames = rng.random((3, 16, 20, 4)).astype(np.float32)
+    frames[..., 3] = np.where(rng.random((3, 16, 20)) < 0.4, 0.0, frames[..., 3])  # clear pixels, dark below
+    frames[0, ..., :3] = np.where(frames[0, ..., 3:] == 0, 0.0, frames[0, ..., :3])  # a blend: black under clear
+    frames[1, 0, 0, 3] = 0.4 / 255  # rounds to 0 in 8 bit: cleared in the PNG only
+    paths = write_frames(tmp_path, frames, exr=True)
+    for i, p in enumerate(paths):
+        png = read_image(p)
+        clear = np.round(png[..., 3] * 255) == 0
+        assert clear.sum() >= 0.3 * clear.size
+        np.testing.assert_array_equal(png[clear][:, :3], 1.0)  # one steady page under transparency
+        over = composite_over_white(np.round(frames[i] * 255) / 255)
+        np.testing.assert_allclose(composite_over_white(png), over, atol=1e-6)  # nothing visible moved
+        exr = read_image(tmp_path / "frames_exr" / f"{i:04d}.exr")
+        np.testing.assert_array_equal(exr[exr[..., 3] == 0][:, :3], 1.0)
+    assert read_image(tmp_path / "frames_exr" / "0001.exr")[0, 0, 3] > 0  # not clear in half float: kept as drawn
