@@ -4,7 +4,7 @@ import itertools
 import numpy as np
 import pytest
 
-from ops.blending.path import diagonal_path, optimal_path, path_cost, transition_cost
+from ops.blending.path import TRANSITION_WEIGHT, diagonal_path, optimal_path, path_cost, transition_cost
 
 
 def _brute_force(q, Q, alphas, epsilon):
@@ -64,14 +64,15 @@ def test_transition_cost_spreads_the_blend_where_sequences_agree():
     even = optimal_path(np.zeros((T, 9)), np.ones(T), alphas)
     np.testing.assert_array_equal(alphas[even.alpha_index], [0, 0.25, 0.5, 0.75, 1])  # the diagonal, no pop
     jump = path_cost(np.zeros((T, 9)), np.ones(T), alphas, np.array([0, 0, 0, 0, 8]))[0]
-    assert jump == pytest.approx(T - 1) and even.cost == pytest.approx(1.0)
+    w = TRANSITION_WEIGHT
+    assert jump == pytest.approx(w * (T - 1)) and even.cost == pytest.approx(w * 1.0)
     # where the sequences disagree strongly (large Q), alpha moves less
     Q = np.array([1.0, 1.0, 50.0, 50.0, 1.0])
     skew = optimal_path(np.zeros((T, 9)), Q, alphas)
     steps = np.diff(alphas[skew.alpha_index])
     # steps 1-3 touch the disagreeing frames 2 and 3; step 0 (weight 1) is the cheap place to cross-fade
     assert steps[0] == steps.max() and steps[1:3].sum() < steps[0]
-    assert transition_cost(Q, np.array(0.0), np.array(0.5), np.array(0)) == pytest.approx(0.5 * 2 * 4 * 0.25)
+    assert transition_cost(Q, np.array(0.0), np.array(0.5), np.array(0)) == pytest.approx(w * 0.5 * 2 * 4 * 0.25)
 
 
 def test_diagonal_path_on_dyadic_grid():

@@ -1,0 +1,121 @@
+"""Every cell of the image matrix against the ground truth: which blend path is nearest the truth, per weight.
+
+    inbetween eval SHOTS_ROOT --out EVAL_DIR               # with INBETWEEN_HOME=HOME: runs and stores every stage
+    python benchmarks/bench_path.py HOME SHOTS_ROOT [--weights 0.25 1 4 16] [--cache CELLS.npz]
+
+For each two-key shot of SHOTS_ROOT with ground truth, the stored matrix (seg0/rife_matrix of HOME's run) gets
+every cell blended (the run blends only its path's), each cell is scored against the true frame at its t over
+the shot's paper (the evaluation's plate and PSNR), and the optimal path (ops.blending.path) is found again for
+each weight w of the Dirichlet term against q, from the run's own q and Q. Printed per shot and per group: the
+mean PSNR of the interior frames along each weight's path, along the diagonal (alpha = t) and the oracle (the
+best cell at each t, which no path knows), and the RIFE calls each path needs (its cells and their bisection's
+parents). The weight was chosen on the samples' rows alone; shots named r00_... (held-out redrawn set) and
+rd.. (realdev) are reported beside them. --cache keeps the scored cells, so a rerun with other weights is quick.
+"""
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
+
+from assets.blending import _table_arrays  # noqa: E402
+from assets.evaluation import ground_truth  # noqa: E402
+from ops.blending.image_matrix import bisection_closure, complete_cells  # noqa: E402
+from ops.blending.path import TRANSITION_WEIGHT, optimal_path  # noqa: E402
+from ops.evaluation.metrics import psnr  # noqa: E402
+from ops.evaluation.plate import over, paper_plate  # noqa: E402
+from ops.settings import Settings  # noqa: E402
+from ops.shotio.image_io import read_image, to_rgba  # noqa: E402
+from ops.shotio.load import load_shot  # noqa: E402
+
+
+def group(name: str) -> str:
+    return "redrawn" if re.match(r"r\d\d_", name) else "realdev" if re.match(r"rd\d\d_", name) else "samples"
+
+
+def score_cells(store, shot, partition: str, rife) -> dict[str, np.ndarray]:
+    """{'psnr': (T, A) dB of every cell against the truth, 'q': (T, A), 'Q': (T,), 'alphas': (A,)}."""
+    matrix = store.read("seg0/rife_matrix", partition)
+    seqs = [store.read(f"seg0/key{k}/deformed_frames", partition) for k in (0, 1)]
+    T, A = matrix.computed.shape
+    for j in range(A):  # a column at a time: complete_cells fills a path's cells and their parents
+        matrix = complete_cells(matrix, seqs[0].images, seqs[1].images, rife, np.full(T, j))
+    masks = [store.read(f"key{k}/masks", partition) for k in (0, 1)]
+    plate = paper_plate([to_rgba(read_image(p)) for p in shot.keyframes], [m.coverage for m in masks],
+                        [m.paper for m in masks])
+    index, truth = ground_truth(shot)
+    truth = over(truth, plate)
+    P = np.full((T, A), np.nan)
+    for i, t in enumerate(index):
+        cells = over(np.asarray(matrix.frames[t]), plate)
+        P[t] = [psnr(cells[a], truth[i]) for a in range(A)]
+    _, alphas, q, Q = _table_arrays(store.read("seg0/quality_metrics", partition))
+    return {"psnr": P, "q": q, "Q": Q, "alphas": alphas}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("home", help="INBETWEEN_HOME of an `inbetween eval` of the shots")
+    ap.add_argument("shots", help="the folder of shot folders that was evaluated")
+    ap.add_argument("--weights", type=float, nargs="*", default=[0.25, 0.5, 1, 2, 4, 8, 16, 64])
+    ap.add_argument("--cache", help=".npz of scored cells: read if it exists, else written")
+    args = ap.parse_args()
+    from resources.rife import RifeResource
+    from resources.store import Store
+
+    cache = Path(args.cache) if args.cache else None
+    cells: dict[str, dict[str, np.ndarray]] = {}
+    if cache and cache.is_file():
+        data = np.load(cache)
+        for key in data.files:
+            name, field = key.split("/")
+            cells.setdefault(name, {})[field] = data[key]
+    else:
+        store, rife = Store(Path(args.home) / "storage"), RifeResource().load()
+        for d in sorted(p for p in Path(args.shots).iterdir() if (p / "shot.json").is_file()):
+            shot = load_shot(d)
+            if shot.n_keys != 2 or shot.ground_truth is None:
+                continue
+            cells[d.name] = score_cells(store, shot, d.name, rife)
+            print(f"scored {d.name}", flush=True)
+        if cache:
+            np.savez(cache, **{f"{n}/{f}": v for n, c in cells.items() for f, v in c.items()})
+    epsilon = Settings().epsilon
+    head = [f"w={w:g}" for w in args.weights] + ["diagonal", "oracle"]
+    print("\nmean PSNR of the interior frames (dB) along each path; RIFE calls of each weight's path after '|'")
+    print(f"{'shot':44s} " + " ".join(f"{h:>8s}" for h in head) + " | " + " ".join(f"{h:>6s}" for h in head[:-2]))
+    rows: dict[str, list[float]] = {}
+    for name, c in cells.items():
+        P, T = c["psnr"], len(c["psnr"])
+        inner = range(1, T - 1)
+        means, calls = [], []
+        for w in args.weights:
+            Q = c["Q"] * (w / TRANSITION_WEIGHT)  # the path's cost weighs Q by TRANSITION_WEIGHT: by w instead
+            idx = optimal_path(c["q"], Q, c["alphas"], epsilon=epsilon).alpha_index
+            means.append(float(np.mean([P[t, idx[t]] for t in inner])))
+            want = np.zeros(P.shape, bool)
+            want[np.arange(T), idx] = True
+            depth = int(round(np.log2(P.shape[1] - 1)))
+            calls.append(int(bisection_closure(want, depth)[:, 1:-1].sum()))  # each interior cell: one call
+        diag = np.argmin(np.abs(np.linspace(0, 1, T)[:, None] - c["alphas"][None]), axis=1)
+        means += [float(np.mean([P[t, diag[t]] for t in inner])), float(np.nanmax(P[1:-1], axis=1).mean())]
+        rows[name] = means + calls
+        print(f"{name[:44]:44s} " + " ".join(f"{v:8.2f}" for v in means) + " | " +
+              " ".join(f"{v:6d}" for v in calls))
+    for g in ("samples", "redrawn", "realdev"):
+        v = np.array([r for n, r in rows.items() if group(n) == g])
+        if len(v):
+            m = v.mean(axis=0)
+            print(f"{f'{g} mean (n={len(v)})':44s} " + " ".join(f"{x:8.3f}" for x in m[:len(head)]) + " | " +
+                  " ".join(f"{x:6.1f}" for x in m[len(head):]))
+
+
+if __name__ == "__main__":
+    main()
