@@ -45,8 +45,10 @@ lanes' L-BFGS and reaches the same energies there (ops.geometry.deform). (Before
 up to 30 trials each deformed from rest, so turning an even region odd with
 one more click multiplied its cost by up to 15.) A region whose boundary,
 T-junctions, front bones, key poses and solver settings are those of a region
-of a previous template (region_key) keeps that template's cut unsearched; a
-region that runs out of its wall-clock budget keeps the best cut found.
+of a previous template (region_key) keeps that template's cut unsearched, and
+when every region does and the incised mesh is that template's, the template
+itself comes back, its solution at the other pose included (_previous_solution);
+a region that runs out of its wall-clock budget keeps the best cut found.
 """
 from __future__ import annotations
 
@@ -550,6 +552,10 @@ def optimize_topology(
             choice[r] = _search_even(region, jn) if len(jn) % 2 == 0 else _search_odd(region, n, jn)
         if region.out_of_budget:
             over.append(r)
+    kept = _previous_solution(previous, base, choice, keys, len(targets)) if 0 < len(reused) == base.n_regions \
+        else None  # (the region keys hold the poses and the solver's settings: without a region, nothing does)
+    if kept is not None:
+        return kept
     winner = search.score(choice, list(search.cache)[-1:])
     warnings = base.warnings + winner.inc.warnings
     if reused:
@@ -566,6 +572,37 @@ def optimize_topology(
         cut_assignment=[a.labels.copy() for a in choice], energy=float(winner.energy), trials=len(search.cache),
         mode=mode, warnings=warnings, cut_switches=[a.switches.copy() for a in choice], region_keys=keys,
         reused_regions=reused, budget_regions=over, target_x=[_last_solution(path) for path in winner.steps],
+    )
+
+
+def _previous_solution(previous: Template | None, base: TemplateBase, choice: list[Assignment], keys: list[str],
+                       n_targets: int) -> Template | None:
+    """The previous template itself, its solution at the target poses and energy included, when every region kept
+    its cut and the incised mesh and its handles are the previous one's, vertex for vertex; else None.
+
+    Solving again from rest would land elsewhere in a flat valley of the same energy (3 px on a realdev shot), and
+    the lane's texturing and registration downstream turn that into visibly different frames: an unchanged
+    template (a rerun after an upgrade, an edit of the other key's clicks) now comes back exactly."""
+    if previous is None or len(previous.target_x) != n_targets:
+        return None
+    inc = incise(base, choice)
+    same = [(inc.rest, previous.rest), (inc.faces, previous.faces), (inc.face_layer, previous.face_layer),
+            (inc.handles, previous.handles), (base.handle_weights, previous.handle_weights),
+            (base.handle_offsets, previous.handle_offsets), (base.handle_frames, previous.handle_frames)]
+    if not all(np.shape(a) == np.shape(b) and np.array_equal(a, b) for a, b in same):
+        return None
+    if any(len(x) and np.shape(x) != inc.rest.shape for x in previous.target_x):
+        return None
+    warnings = base.warnings + inc.warnings + [
+        f"kept the cuts of {base.n_regions} unchanged occlusion region(s) {list(range(base.n_regions))} from the "
+        "previous template, without searching, and its solution at the other key's pose, without solving"]
+    return Template(
+        rest=inc.rest, faces=inc.faces, face_layer=inc.face_layer, handles=inc.handles,
+        handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
+        cut_assignment=[a.labels.copy() for a in choice], energy=float(previous.energy), trials=0,
+        mode=previous.mode, warnings=warnings, cut_switches=[a.switches.copy() for a in choice],
+        region_keys=list(keys), reused_regions=list(range(base.n_regions)), budget_regions=[],
+        target_x=[np.array(x, np.float64) for x in previous.target_x],
     )
 
 

@@ -390,7 +390,9 @@ def test_unchanged_regions_keep_their_cuts():
     first = optimize_topology(refined, p0, p1, sk)
     assert first.reused_regions == [] and len(first.region_keys) == 2 and first.trials >= 3
     again = optimize_topology(refined, p0, p1, sk, previous=first)
-    assert again.reused_regions == [0, 1] and again.trials == 1  # only the kept topology is deformed
+    assert again.reused_regions == [0, 1] and again.trials == 0  # nothing deformed: the same template, exactly
+    assert again.energy == first.energy and all(np.array_equal(a, b) for a, b in zip(again.target_x, first.target_x))
+    assert np.array_equal(again.rest, first.rest) and np.array_equal(again.faces, first.faces)
     assert [c.tolist() for c in again.cut_assignment] == [c.tolist() for c in first.cut_assignment]
     assert [c.tolist() for c in again.cut_switches] == [c.tolist() for c in first.cut_switches]
     assert any("without searching" in w for w in again.warnings)
