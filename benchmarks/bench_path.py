@@ -9,8 +9,8 @@ the shot's paper (the evaluation's plate and PSNR), and the optimal path (ops.bl
 each weight w of the Dirichlet term against q, from the run's own q and Q. Printed per shot and per group: the
 mean PSNR of the interior frames along each weight's path, along the diagonal (alpha = t) and the oracle (the
 best cell at each t, which no path knows), and the RIFE calls each path needs (its cells and their bisection's
-parents). The weight was chosen on the samples' rows alone; shots named r00_... (held-out redrawn set) and
-rd.. (realdev) are reported beside them. --cache keeps the scored cells, so a rerun with other weights is quick.
+parents). The weight was chosen on the samples' rows alone; shots named h00_... (held-out set), r00_...
+(held-out redrawn set) and rd00_... (realdev) are reported beside them. --cache keeps the scored cells, so a rerun with other weights is quick.
 """
 from __future__ import annotations
 
@@ -37,7 +37,11 @@ from ops.shotio.load import load_shot  # noqa: E402
 
 
 def group(name: str) -> str:
-    return "redrawn" if re.match(r"r\d\d_", name) else "realdev" if re.match(r"rd\d\d_", name) else "samples"
+    """The set a shot's name says it is from (benchmarks/heldout_shots.py, realdev_shots.py), else a sample."""
+    for pattern, name_of_set in ((r"r\d\d_", "redrawn"), (r"rd\d\d_", "realdev"), (r"h\d\d_", "held-out")):
+        if re.match(pattern, name):
+            return name_of_set
+    return "samples"
 
 
 def score_cells(store, shot, partition: str, rife) -> dict[str, np.ndarray]:
@@ -109,7 +113,7 @@ def main() -> None:
         rows[name] = means + calls
         print(f"{name[:44]:44s} " + " ".join(f"{v:8.2f}" for v in means) + " | " +
               " ".join(f"{v:6d}" for v in calls))
-    for g in ("samples", "redrawn", "realdev"):
+    for g in ("samples", "held-out", "redrawn", "realdev"):
         v = np.array([r for n, r in rows.items() if group(n) == g])
         if len(v):
             m = v.mean(axis=0)
