@@ -582,7 +582,8 @@ def _previous_solution(previous: Template | None, base: TemplateBase, choice: li
 
     Solving again from rest would land elsewhere in a flat valley of the same energy (3 px on a realdev shot), and
     the lane's texturing and registration downstream turn that into visibly different frames: an unchanged
-    template (a rerun after an upgrade, an edit of the other key's clicks) now comes back exactly."""
+    template (a rerun after an upgrade, or after a change to a setting the cuts do not read, such as the search's
+    budget) now comes back exactly."""
     if previous is None or len(previous.target_x) != n_targets:
         return None
     inc = incise(base, choice)
