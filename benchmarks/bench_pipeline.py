@@ -17,7 +17,9 @@
 4. `batch` over the sample shots: wall time and peak RSS (largest process, and the whole process tree);
 5. adding 5 T-junctions to a shot (`--add-junctions`, default arm_cross): a cold run of the shot as it is and
    one with 5 more clicks on its occlusion boundaries (each in the middle of the longest stretch of boundary
-   without one), per stage seconds before and after and their ratio.
+   without one), per stage seconds before and after and their ratio; then the stages the clicks rerun, each
+   computed again alone in this process from the parents those runs stored (CPU seconds: no other lane on the
+   cores, so the ratio is the stage's own).
 
     python benchmarks/bench_pipeline.py [--shots data_samples] [--only arm_cross ...] [--no-scaling] [--no-batch]
                                         [--add-junctions SHOT | --no-add-junctions] [--rounds N]
@@ -329,6 +331,48 @@ def extra_junctions(home: Path, partition: str, count: int) -> tuple[int, list[l
     return k, added
 
 
+class _HidingStore:
+    """A store whose one stage's stored output reads as missing: that stage computes as in a cold home (the
+    template stage keeps an earlier template's cuts when it finds one, and searches nothing)."""
+
+    def __init__(self, store, hidden: str):
+        self._store, self._hidden = store, hidden
+
+    def read(self, name: str, partition: str):
+        if name == self._hidden:
+            raise KeyError(name)
+        return self._store.read(name, partition)
+
+    def __getattr__(self, name: str):
+        return getattr(self._store, name)
+
+
+def stage_cpu(home: Path, shot_dir: Path, name: str, repeats: int = 2) -> float:
+    """The least CPU seconds, over `repeats`, of computing stage `name` of the shot in this process, from the
+    parents a run stored in `home`: the stage alone, with no other lane beside it on the cores."""
+    from types import SimpleNamespace
+
+    from assets import stages  # noqa: F401  (declares every stage)
+    from assets.compute import STAGE_SPECS, StageEnv
+    from ops.settings import RecordingSettings, Settings
+    from ops.shotio.load import load_shot
+    from resources.inpainter import InpainterResource
+    from resources.rife import RifeResource
+    from resources.store import Store
+
+    log = SimpleNamespace(info=lambda *a, **k: None, warning=lambda *a, **k: None, debug=lambda *a, **k: None)
+    context = SimpleNamespace(resources=SimpleNamespace(inpainter=InpainterResource(), rife=RifeResource()), log=log)
+    store = _HidingStore(Store(home / "storage"), name)
+    best = np.inf
+    for _ in range(repeats):
+        env = StageEnv(context, shot_dir.name, store, None, RecordingSettings(Settings()), stage=name)
+        env.__dict__["shot"] = load_shot(shot_dir)
+        start = time.process_time()
+        STAGE_SPECS[name].compute(env)
+        best = min(best, time.process_time() - start)
+    return best
+
+
 def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> None:
     """Cold runs of a shot and of the shot with `count` more T-junctions, `rounds` times in turn: per stage the
     median seconds and their ratio (a stage's seconds are wall time beside the other lane's stages on 2 cores,
@@ -359,6 +403,15 @@ def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> 
         ma, mb = float(np.median(a)), float(np.median(b))
         each = " ".join(f"{y / x:.2f}" if x > 0.005 else "nan" for x, y in zip(a, b))
         print(f"{stage:28s} {ma:8.2f} {mb:8.2f} {mb / ma if ma > 0.005 else float('nan'):6.2f}  {each}")
+    # the stages the clicks rerun, each alone in this process: CPU seconds without the other lane's contention
+    names = [f"key{k}/refined_masks", f"key{k}/template", f"seg0/key{k}/textured_template",
+             f"seg0/key{k}/deformed_frames", "seg0/rife_matrix"]
+    print("\nthe same stages computed alone in one process, least CPU seconds of 2 (no other lane beside them)")
+    print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}")
+    for name in names:
+        a = stage_cpu(tmp / "junctions-home-before-0", base, name)
+        b = stage_cpu(tmp / "junctions-home-after-0", shot, name)
+        print(f"{name:28s} {a:8.2f} {b:8.2f} {b / a:6.2f}", flush=True)
 
 
 def main() -> None:
