@@ -27,7 +27,7 @@ if str(ROOT) not in sys.path:
 
 from assets.blending import _table_arrays  # noqa: E402
 from assets.evaluation import ground_truth  # noqa: E402
-from ops.blending.image_matrix import bisection_closure, complete_cells  # noqa: E402
+from ops.blending.image_matrix import bisection_closure, build_image_matrix  # noqa: E402
 from ops.blending.path import TRANSITION_WEIGHT, optimal_path  # noqa: E402
 from ops.evaluation.metrics import psnr  # noqa: E402
 from ops.evaluation.plate import over, paper_plate  # noqa: E402
@@ -49,8 +49,10 @@ def score_cells(store, shot, partition: str, rife) -> dict[str, np.ndarray]:
     matrix = store.read("seg0/rife_matrix", partition)
     seqs = [store.read(f"seg0/key{k}/deformed_frames", partition) for k in (0, 1)]
     T, A = matrix.computed.shape
-    for j in range(A):  # a column at a time: complete_cells fills a path's cells and their parents
-        matrix = complete_cells(matrix, seqs[0].images, seqs[1].images, rife, np.full(T, j))
+    # every cell wanted, in one pass; the cells the run blended are kept
+    matrix = build_image_matrix(seqs[0].images, seqs[1].images, matrix.times, rife, depth=int(round(np.log2(A - 1))),
+                                out=np.array(matrix.frames, np.float32), flows_out=np.array(matrix.flows, np.float32),
+                                wanted=lambda flows: np.ones((T, A), bool), computed=matrix.computed)
     masks = [store.read(f"key{k}/masks", partition) for k in (0, 1)]
     plate = paper_plate([to_rgba(read_image(p)) for p in shot.keyframes], [m.coverage for m in masks],
                         [m.paper for m in masks])

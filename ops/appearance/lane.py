@@ -11,7 +11,7 @@ from ops.appearance.inpaint import Inpainter
 from ops.appearance.render import Renderer, depth_order, rasterize_ids
 from ops.appearance.texture import texture_template
 from ops.appearance.weights import depth_weights
-from ops.geometry.deform import FRAME_METHOD, Deformer, deform_sequence
+from ops.geometry.deform import Deformer, deform_sequence
 from ops.geometry.register import PASSES, Registration, fade_in, flow_targets, gray_over_white, register
 from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedTemplate
 
@@ -46,8 +46,7 @@ def deform_lane(textured: TexturedTemplate, times: np.ndarray, poses: np.ndarray
     other: the masks of the key at the segment's other end; given, the lane is registered onto that drawing
     where the skeleton leaves it off, faded in over the segment (ops.geometry.register)."""
     template = textured.template
-    deformer = Deformer(template.rest, template.faces, template.handles, mu=mu, method=FRAME_METHOD)
-    X, energies, iters = deform_sequence(template, poses, "backward" if backward else "forward", deformer)
+    X, energies, iters = deform_sequence(template, poses, "backward" if backward else "forward", mu=mu)
     T = len(times)
     images = np.zeros((T, *shape, 4), np.float32)
     inpainted = np.zeros((T, *shape), bool)

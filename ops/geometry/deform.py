@@ -124,12 +124,9 @@ def max_injective_step(X: np.ndarray, D: np.ndarray, faces: np.ndarray) -> float
 
 
 SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut search's), preconditioned L-BFGS
-# A lane's frames: projected Newton, each frame from its neighbour, stopped at a tenth of the usual gradient norm.
-# Near the minimum Newton takes 2-40 steps where L-BFGS takes 10-300, but a frame's minimum may lie in a flat valley
-# (arm_cross key0's last frame: the true Hessian's smallest eigenvalue there 0.21, no saddle), where a gradient norm
-# of 0.01 stops Newton 3.7 px short of L-BFGS's point (energy +1.4e-3, 0.11 dB in the evaluation); at 1e-3 it
-# reaches L-BFGS's energy or a lower one on 64 of 72 lanes (samples, held-out, realdev), in 0.27x its CPU time
-# over all of them; the other eight settle in other minima of hard, crumpled frames (docs/performance.md).
+# A lane's frames: projected Newton stopped at a tenth of the usual gradient norm (why: the module docstring). At
+# 1e-3 it reaches L-BFGS's energy or a lower one on 64 of 72 lanes (samples, held-out, realdev) in 0.27x its CPU
+# time over all of them; the other eight settle in other minima of hard, crumpled frames (docs/performance.md).
 FRAME_METHOD, FRAME_GRAD_TOL = "newton", 1e-3
 NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
 MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: 0.3 and 16 keep
@@ -404,18 +401,19 @@ def _edge_operator(faces: np.ndarray, n: int) -> sp.csr_matrix:
 
 def deform_sequence(
     template: Template, poses: np.ndarray, order: str = "forward", deformer: Deformer | None = None,
-    grad_tol: float | None = None,
+    grad_tol: float | None = None, mu: float = 200.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Deform the template into every pose (T, J, 3), warm-starting each frame from its neighbour.
 
     order "forward" solves t = 0, 1, ... (key0's template); "backward" solves
-    from the last frame down (key1's). deformer: default FRAME_METHOD's;
-    grad_tol: default FRAME_GRAD_TOL for Newton, 0.01 for L-BFGS. Returns X
+    from the last frame down (key1's). deformer: default FRAME_METHOD's with
+    pose weight mu; grad_tol: default FRAME_GRAD_TOL for Newton, 0.01 for
+    L-BFGS. Returns X
     (T, n, 2) pixels, energies (T,), iterations (T,) int64, all in time order.
     """
     if order not in ("forward", "backward"):
         raise ValueError(f"order must be 'forward' or 'backward', got {order!r}")
-    d = deformer or Deformer(template.rest, template.faces, template.handles, method=FRAME_METHOD)
+    d = deformer or Deformer(template.rest, template.faces, template.handles, mu=mu, method=FRAME_METHOD)
     if grad_tol is None:
         grad_tol = FRAME_GRAD_TOL if d.method == "newton" else 0.01
     T = len(poses)

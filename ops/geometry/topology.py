@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import hashlib
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -552,15 +552,17 @@ def optimize_topology(
             choice[r] = _search_even(region, jn) if len(jn) % 2 == 0 else _search_odd(region, n, jn)
         if region.out_of_budget:
             over.append(r)
-    kept = _previous_solution(previous, base, choice, keys, len(targets)) if 0 < len(reused) == base.n_regions \
-        else None  # (the region keys hold the poses and the solver's settings: without a region, nothing does)
-    if kept is not None:
-        return kept
+    kept_cuts = (f"kept the cuts of {len(reused)} unchanged occlusion region(s) {reused} from the previous "
+                 "template, without searching")
+    # only the region keys vouch for the poses and the solver's settings: a template without a region is solved
+    all_kept = 0 < len(reused) == base.n_regions
+    unchanged = _previous_solution(previous, base, choice, keys, len(targets), kept_cuts) if all_kept else None
+    if unchanged is not None:
+        return unchanged
     winner = search.score(choice, list(search.cache)[-1:])
     warnings = base.warnings + winner.inc.warnings
     if reused:
-        warnings.append(f"kept the cuts of {len(reused)} unchanged occlusion region(s) {reused} from the previous "
-                        "template, without searching")
+        warnings.append(kept_cuts)
     if over:
         warnings.append(f"the cut search of occlusion region(s) {over} ran out of its {solver.region_budget_s:g} s "
                         "budget: kept the best cut found by then (raise Settings.topology_budget for a full search)")
@@ -576,14 +578,14 @@ def optimize_topology(
 
 
 def _previous_solution(previous: Template | None, base: TemplateBase, choice: list[Assignment], keys: list[str],
-                       n_targets: int) -> Template | None:
+                       n_targets: int, warning: str) -> Template | None:
     """The previous template itself, its solution at the target poses and energy included, when every region kept
     its cut and the incised mesh and its handles are the previous one's, vertex for vertex; else None.
 
     Solving again from rest would land elsewhere in a flat valley of the same energy (3 px on a realdev shot), and
     the lane's texturing and registration downstream turn that into visibly different frames: an unchanged
     template (a rerun after an upgrade, or after a change to a setting the cuts do not read, such as the search's
-    budget) now comes back exactly."""
+    budget) now comes back exactly. warning: the one that says the cuts were kept."""
     if previous is None or len(previous.target_x) != n_targets:
         return None
     inc = incise(base, choice)
@@ -594,17 +596,9 @@ def _previous_solution(previous: Template | None, base: TemplateBase, choice: li
         return None
     if any(len(x) and np.shape(x) != inc.rest.shape for x in previous.target_x):
         return None
-    warnings = base.warnings + inc.warnings + [
-        f"kept the cuts of {base.n_regions} unchanged occlusion region(s) {list(range(base.n_regions))} from the "
-        "previous template, without searching, and its solution at the other key's pose, without solving"]
-    return Template(
-        rest=inc.rest, faces=inc.faces, face_layer=inc.face_layer, handles=inc.handles,
-        handle_weights=base.handle_weights, handle_offsets=base.handle_offsets, handle_frames=base.handle_frames,
-        cut_assignment=[a.labels.copy() for a in choice], energy=float(previous.energy), trials=0,
-        mode=previous.mode, warnings=warnings, cut_switches=[a.switches.copy() for a in choice],
-        region_keys=list(keys), reused_regions=list(range(base.n_regions)), budget_regions=[],
-        target_x=[np.array(x, np.float64) for x in previous.target_x],
-    )
+    return replace(previous, trials=0, region_keys=list(keys), reused_regions=list(range(base.n_regions)),
+                   budget_regions=[], warnings=base.warnings + inc.warnings + [
+                       f"{warning}, and its solution at the other key's pose, without solving"])
 
 
 def _last_solution(steps: list[tuple[np.ndarray, float] | None]) -> np.ndarray:
