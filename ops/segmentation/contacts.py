@@ -89,15 +89,9 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     if gap.any():
         nearest = np.full(foreground.shape, -1, np.int64)
         nearest[fy, fx] = np.argmin(bone_dist, axis=0)
-        # a side is within the gap's half width plus SIDE_PX: paper glued across a strip wider than two sides
-        # (a watercolour forearm a few pixels off the waist) still parts the bodies along its middle
-        reach = ndimage.distance_transform_edt(gap) + side
         # each reading of the gap's sides is tested alone: bones from two readings on one side are one body
         for owned in (_carried(foreground, body, ys, xs, owner), nearest):
-            near_gap = np.zeros_like(near)
-            for bone in np.unique(owned[owned >= 0]):
-                near_gap[bone] = gap & (ndimage.distance_transform_edt(owned != bone) <= reach)
-            readings.append((near_gap, gap))
+            readings.append((gap_sides(gap, owned, side, len(skeleton.bones)), gap))
     cache: dict = {}  # the bodies' regions, only for bones joined around a short bone
     touching = np.zeros(foreground.shape, bool)
     for near_r, parts_r in readings:
@@ -109,6 +103,34 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
         if len(longest_path(skeletonize(piece))) >= MIN_CONTACT_PX * scale:
             pieces.append(piece)
     return pieces
+
+
+def gap_sides(gap: np.ndarray, owned: np.ndarray, side: int, n_bones: int) -> np.ndarray:
+    """(B, H, W) bool: the pixels of the (H, W) bool glued paper `gap` that bone b's pixels ((H, W) int64
+    `owned`, -1 for none) lie within the gap's half width plus `side` pixels of (its local distance transform):
+    paper glued across a strip wider than two sides (a watercolour forearm a few pixels off the waist) still
+    parts the bodies along its middle.
+
+    Computed in the box around the gap grown by the farthest reach, which holds every owned pixel close enough
+    to count: the same as over the whole image, at a fraction of the cost of one distance transform per bone."""
+    out = np.zeros((n_bones,) + gap.shape, bool)
+    rows, cols = np.nonzero(gap)
+    if len(rows) == 0:
+        return out
+    h, w = gap.shape
+
+    def around(grow: int) -> tuple[slice, slice]:
+        return (slice(max(0, rows.min() - grow), min(h, rows.max() + 1 + grow)),
+                slice(max(0, cols.min() - grow), min(w, cols.max() + 1 + grow)))
+
+    # the gap's transform needs only the gap and the ring of paper or body around it (the frame's edge is none)
+    half_width = ndimage.distance_transform_edt(gap[around(1)]).max()
+    box = around(int(np.ceil(half_width + side)) + 1)
+    g, own = gap[box], owned[box]
+    limit = ndimage.distance_transform_edt(g) + side
+    for bone in np.unique(own[own >= 0]):
+        out[(bone, *box)] = g & (ndimage.distance_transform_edt(own != bone) <= limit)
+    return out
 
 
 def _owners(foreground: np.ndarray, body: np.ndarray, labels: np.ndarray, holds: np.ndarray, pose: np.ndarray,

@@ -254,3 +254,29 @@ def test_the_watercolour_forearm_parts_from_the_waist_along_the_whole_gap():
         if xs.max() < 120:  # the right arm's side of the body (image left)
             spans.append((ys.min(), ys.max()))
     assert any(top <= 104 and bottom >= 135 for top, bottom in spans), spans
+
+
+def test_gap_sides_in_the_gaps_box_equal_the_whole_images_transforms():
+    """gap_sides computes one distance transform per bone in the box around the gap only: brute force over the
+    whole image (as it was computed before) must give the same sides, bit for bit, for gaps in the middle, at
+    the frame's edge and in several pieces."""
+    rng = np.random.default_rng(7)
+    shape = (120, 150)
+    for trial in range(6):
+        owned = rng.integers(-1, 5, size=shape)
+        owned = cv2.resize(owned.astype(np.float32), (shape[1] // 6, shape[0] // 6), interpolation=cv2.INTER_NEAREST)
+        owned = cv2.resize(owned, (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST).astype(np.int64)
+        gap = np.zeros(shape, bool)
+        gap[40:52, 30:37] = True  # a strip
+        gap[70:75, 90:120] = trial % 2 == 0  # a second piece, far from the first
+        gap[0:6, 140:150] = trial >= 3  # one at the frame's corner
+        owned[gap] = -1
+        side = 1 + trial % 3
+        reach = contacts_mod.ndimage.distance_transform_edt(gap) + side
+        want = np.zeros((5,) + shape, bool)
+        for bone in range(5):
+            if (owned == bone).any():
+                want[bone] = gap & (contacts_mod.ndimage.distance_transform_edt(owned != bone) <= reach)
+        got = contacts_mod.gap_sides(gap, owned, side, 5)
+        assert want.any() and np.array_equal(got, want)
+    assert not contacts_mod.gap_sides(np.zeros(shape, bool), owned, 2, 5).any()
