@@ -135,7 +135,9 @@ def test_a_standby_whose_code_changed_is_dropped_for_a_fresh_run(tmp_path):
 
 @pytest.mark.slow  # seconds: a rerun long enough to be superseded
 def test_a_save_while_the_standby_runs_stops_it_and_runs_the_new_save(tmp_path):
-    reruns = make_ready(tmp_path, "--sleep", "1.0")
+    # 2 s a stage: the first save's run must still be going when the second save comes, on a loaded machine too
+    # (at 1 s it once ended first during the whole suite, and the standby exited 0 before it could be stopped)
+    reruns = make_ready(tmp_path, "--sleep", "2.0")
     reruns.start()
     standby = wait_ready(reruns)
     first = reruns.request("save")
