@@ -111,21 +111,17 @@ def gap_sides(gap: np.ndarray, owned: np.ndarray, side: int, n_bones: int) -> np
     paper glued across a strip wider than two sides (a watercolour forearm a few pixels off the waist) still
     parts the bodies along its middle.
 
-    Computed in the box around the gap grown by the farthest reach, which holds every owned pixel close enough
-    to count: the same as over the whole image, at a fraction of the cost of one distance transform per bone."""
+    Computed in the box around the gap grown by `side` + 1 pixels: a pixel of the gap lies at most a pixel
+    further from the paper or body around the box (inside the box, or the frame's edge) than from the box's
+    side, so an owned pixel beyond the box is more than its reach away. The same as over the whole image, at a
+    fraction of the cost of one distance transform per bone."""
     out = np.zeros((n_bones,) + gap.shape, bool)
     rows, cols = np.nonzero(gap)
     if len(rows) == 0:
         return out
-    h, w = gap.shape
-
-    def around(grow: int) -> tuple[slice, slice]:
-        return (slice(max(0, rows.min() - grow), min(h, rows.max() + 1 + grow)),
-                slice(max(0, cols.min() - grow), min(w, cols.max() + 1 + grow)))
-
-    # the gap's transform needs only the gap and the ring of paper or body around it (the frame's edge is none)
-    half_width = ndimage.distance_transform_edt(gap[around(1)]).max()
-    box = around(int(np.ceil(half_width + side)) + 1)
+    grow = side + 1
+    box = (slice(max(0, rows.min() - grow), rows.max() + 1 + grow),
+           slice(max(0, cols.min() - grow), cols.max() + 1 + grow))
     g, own = gap[box], owned[box]
     limit = ndimage.distance_transform_edt(g) + side
     for bone in np.unique(own[own >= 0]):
