@@ -145,9 +145,11 @@ class WorkAhead:
     """The selected stages of one partition's run, computed ahead of their steps on WORKERS threads."""
 
     def __init__(self, partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
-                 store: Store, resources: dict[str, Any] | Resources, workers: int = WORKERS, parallel: bool = False):
+                 store: Store, resources: dict[str, Any] | Resources, workers: int = WORKERS, parallel: bool = False,
+                 on_computed: Callable[[str, str, Any], None] | None = None):
         """resources: the run's, or a Resources given later; parallel: the stages' op calls run in worker
-        processes (assets/processes.py), whose pool is started."""
+        processes (assets/processes.py), whose pool is started; on_computed(stage, data version, output): called
+        on the computing thread as soon as a stage has computed a new output (it must return quickly)."""
         resources = resources if isinstance(resources, Resources) else Resources(resources)
         self.partition, self.names, self.shot, self.sources = partition, set(names), shot, sources
         self.settings, self.store, self.resources = settings, store, resources
@@ -164,6 +166,7 @@ class WorkAhead:
         self.warm_up = _warm_ups(self.order, resources)  # for a worker with no stage ready, in this order
         self.closed = False
         self.parallel = parallel
+        self.on_computed = on_computed
         self.cond = threading.Condition()
         self.threads = [threading.Thread(target=self._work, name=f"inbetween-ahead-{i}", daemon=True)
                         for i in range(workers)]
@@ -248,6 +251,8 @@ class WorkAhead:
             self.state[name] = "done"  # the stages below it may start
             self.unwritten.append(name)
             self.cond.notify_all()
+        if self.on_computed is not None and not outcome.cached:
+            self.on_computed(name, outcome.version, outcome.result.value)
 
     def _write(self) -> None:
         """The writer thread: each new output beside its place in the store, in the order the stages finished."""
@@ -316,10 +321,13 @@ def _prepare(job: Callable[[], Any]) -> None:
 
 @contextmanager
 def working_ahead(partition: str, names: list[str], shot: Shot, sources: dict[str, str], settings: Settings,
-                  store: Store, resources: dict[str, Any] | Resources) -> Iterator[WorkAhead]:
-    """While open, the steps of `names` for this partition in this process take their outcomes from a WorkAhead."""
+                  store: Store, resources: dict[str, Any] | Resources,
+                  on_computed: Callable[[str, str, Any], None] | None = None) -> Iterator[WorkAhead]:
+    """While open, the steps of `names` for this partition in this process take their outcomes from a WorkAhead
+    (on_computed: WorkAhead's)."""
     parallel = processes.pool() is not None  # started now: its imports overlap Dagster's start
-    ahead = WorkAhead(partition, names, shot, sources, settings, store, resources, parallel=parallel)
+    ahead = WorkAhead(partition, names, shot, sources, settings, store, resources, parallel=parallel,
+                      on_computed=on_computed)
     AHEAD[partition] = ahead
     switch = sys.getswitchinterval()
     sys.setswitchinterval(min(switch, GIL_SWITCH_S))

@@ -184,13 +184,13 @@ def _spill_folder() -> Path:
             shm = Path("/dev/shm")
             base = shm if shm.is_dir() and os.access(shm, os.W_OK) else Path(tempfile.gettempdir())
             for old in base.glob(f"{SPILL_PREFIX}*"):
-                if not _alive(old.name[len(SPILL_PREFIX):].split("-")[0]):
+                if not pid_alive(old.name[len(SPILL_PREFIX):].split("-")[0]):
                     shutil.rmtree(old, ignore_errors=True)
             _spill_dir = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=base))
         return _spill_dir
 
 
-def _alive(pid: str) -> bool:
+def pid_alive(pid: str) -> bool:
     """Whether the process `pid` (a folder name's digits) still runs; an unreadable name counts as alive."""
     try:
         os.kill(int(pid), 0)

@@ -30,17 +30,19 @@ from .locks import shot_lock
 from .logs import log_path
 from .planning import Plan, _remember_ui, code_records, plan, register, stage_warnings, store
 from .session import Session, retry_database_locked
+from .staging import StagedOutputs
 
 EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (assets/farm/, docs/production.md)
 
 
 @retry_database_locked
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
-            executor: str = "in_process", outputs: dict[str, tuple[str, Any] | None] | None = None
-            ) -> dict[str, dict]:
+            executor: str = "in_process", outputs: dict[str, tuple[str, Any] | None] | None = None,
+            on_computed: Callable[[str, str, Any], None] | None = None) -> dict[str, dict]:
     """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}.
     outputs: {stage: None} of the outputs the caller will read; those this process computes are filled in as
-    (data version, value), so the caller need not read them back."""
+    (data version, value), so the caller need not read them back. on_computed(stage, data version, output): told
+    of each new output as soon as it is computed, before Dagster records it (in process only)."""
     if executor == "celery":
         session = Session.get(settings)
         session.ensure_partition(p.partition)
@@ -62,7 +64,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
     # are the ones the plan observed.
     resources = Resources()
     with progress.listen(on_event), working_ahead(p.partition, names, p.shot, p.sources, settings, store(),
-                                                  resources) as ahead:
+                                                  resources, on_computed) as ahead:
         try:
             from ..resource_types import model_resources
 
@@ -111,17 +113,29 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     started: time.perf_counter() when the command began (the CLI's start, imports included): report.json's
     seconds_total counts from it, so the one time figure the front ends print is the wall clock's.
     """
-    from ops.shotio.frames import write_outputs, write_report
-
     start = time.perf_counter() if started is None else started
     settings = settings or Settings()
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)
+    staged = StagedOutputs(out_dir, exports, fps)  # the frames' files written while Dagster records the last steps
+    try:
+        return _run_locked(shot, partition, Path(out_dir), settings, on_wait, verbose, executor, exports, fps, start,
+                           staged)
+    finally:
+        staged.discard()
+
+
+def _run_locked(shot: Shot, partition: str, out_dir: Path, settings: Settings, on_wait: Callable[[], None] | None,
+                verbose: bool, executor: str, exports: tuple[str, ...], fps: float, start: float,
+                staged: StagedOutputs) -> dict:
+    """run_shot once the shot is validated and registered as `partition`."""
+    from ops.shotio.frames import write_outputs, write_report
+
     with shot_lock(partition, on_wait):
         # what the report reads: taken from the run where it computed them (a shot saved meanwhile with other
         # keys reads the rest from the store)
         outputs = dict.fromkeys(["inbetween_frames", *(f"seg{s}/optimal_path" for s in range(shot.n_keys - 1))])
-        shot, executed = _settle(shot, settings, verbose, executor, outputs)
+        shot, executed = _settle(shot, settings, verbose, executor, outputs, staged.on_computed)
         st = store()
         frames = read_output("inbetween_frames", partition, outputs)
         names = plan_stages(shot)
@@ -138,9 +152,9 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     if segments:  # the first segment's, where a two-key (v1) shot always had it
         report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames")}
     report["seconds_total"] = round(time.perf_counter() - start, 3)  # so far: re-stamped once written
-    write_outputs(Path(out_dir), frames.frames, report, exports, fps)
+    write_outputs(out_dir, frames.frames, report, exports, fps, staged.folder(report["frames_version"]))
     report["seconds_total"] = round(time.perf_counter() - start, 3)
-    write_report(Path(out_dir), report)
+    write_report(out_dir, report)
     return report
 
 
@@ -165,7 +179,8 @@ SETTLE_ROUNDS = 3
 
 
 def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_process",
-            outputs: dict[str, tuple[str, Any] | None] | None = None) -> tuple[Shot, dict[str, dict]]:
+            outputs: dict[str, tuple[str, Any] | None] | None = None,
+            on_computed: Callable[[str, str, Any], None] | None = None) -> tuple[Shot, dict[str, dict]]:
     """Run the stages that are not fresh until the shot on disk is the one they ran on.
 
     A shot saved during the run (from the editor, a text editor) can make a stage read the new shot
@@ -180,7 +195,8 @@ def _settle(shot: Shot, settings: Settings, verbose: bool, executor: str = "in_p
         try:
             if p.to_run or not p.recorded:
                 # an out-of-date Dagster instance (a new or deleted DAGSTER_HOME) re-records every stage: all cached
-                executed.update(execute(p, settings, p.to_run or list(p.graph.stages), verbose, executor, outputs))
+                executed.update(execute(p, settings, p.to_run or list(p.graph.stages), verbose, executor, outputs,
+                                        on_computed))
                 _remember_ui(p, p.graph.stages)
             failure = None
         except (StageFailed, ShotError) as e:

@@ -75,10 +75,42 @@ def write_preview_video(path: str | Path, frames: np.ndarray, fps: float = 8) ->
 
 EXPORTS = ("gif", "mp4", "oca", "mov")  # besides the PNG frames (always): what write_outputs can write
 DEFAULT_EXPORTS = ("gif", "oca")  # cheap (a preview; the OCA folder is hard links); the videos on request
+ENCODED = {"gif": "preview.gif", "mp4": "preview.mp4", "mov": "alpha.mov"}  # exports encoded from the frames
+# (the OCA links the written PNGs instead): their names in OUT_DIR
+
+
+def _check_exports(exports: tuple[str, ...]) -> None:
+    unknown = set(exports) - set(EXPORTS)
+    if unknown:
+        raise ValueError(f"unknown exports {sorted(unknown)}: use some of {EXPORTS}")
+
+
+def _encode(kind: str, path: Path, frames: np.ndarray, fps: float) -> None:
+    """One encoded export (ENCODED) of frames (T, H, W, 4) at `path`, written atomically."""
+    from ops.shotio.exports import write_alpha_video
+
+    if kind == "mov":
+        write_alpha_video(path, frames, fps)
+    else:
+        write_preview_video(path, frames, fps)
+
+
+def stage_outputs(folder: str | Path, frames: np.ndarray, exports: tuple[str, ...] = ("gif",),
+                  fps: float = 12.0) -> Path:
+    """What write_outputs writes from the frames (T, H, W, 4) alone, the PNG frames and the encoded exports, written
+    ahead under `folder` (a hidden folder inside OUT_DIR, so that a rename puts them in place) in OUT_DIR's layout,
+    for write_outputs(staged=folder) to move into place once the run is known to have succeeded. -> folder."""
+    _check_exports(exports)
+    folder = Path(folder)
+    write_frames(folder, frames)
+    for kind in exports:
+        if kind in ENCODED:
+            _encode(kind, folder / ENCODED[kind], frames, fps)
+    return folder
 
 
 def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tuple[str, ...] = ("gif",),
-                  fps: float = 12.0) -> None:
+                  fps: float = 12.0, staged: Path | None = None) -> None:
     """OUT_DIR/frames/*.png, report.json and the asked exports (docs/shot-format.md); frames (T, H, W, 4)
     straight alpha, one per output frame (frame i = OUT_DIR/frames/000i.png). Exports: preview.gif and
     preview.mp4 (over white), OUT_DIR/oca/<shot>.oca (Open Cel Animation, keys marked) and alpha.mov (ProRes
@@ -86,12 +118,12 @@ def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tupl
 
     When OUT_DIR already holds exactly these frames (report.json names the same `frames_version` and every
     file is there), they are not written again; frames left over from a longer earlier run are removed.
+    staged: a folder where stage_outputs wrote these frames ahead: its files are renamed into place instead of
+    written (one it lacks is written here).
     """
-    from ops.shotio.exports import write_alpha_video, write_oca
+    from ops.shotio.exports import write_oca
 
-    unknown = set(exports) - set(EXPORTS)
-    if unknown:
-        raise ValueError(f"unknown exports {sorted(unknown)}: use some of {EXPORTS}")
+    _check_exports(exports)
     out_dir.mkdir(parents=True, exist_ok=True)
     name = str(report.get("partition") or out_dir.name)
     pngs = [out_dir / "frames" / f"{i:04d}.png" for i in range(len(frames))]
@@ -103,18 +135,23 @@ def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tupl
         previous = None
     same = previous is not None and previous == report.get("frames_version")
     if not (same and all(p.is_file() for p in pngs)):
-        write_frames(out_dir, frames)
+        if staged is not None and all((staged / "frames" / p.name).is_file() for p in pngs):
+            pngs[0].parent.mkdir(parents=True, exist_ok=True)
+            for p in pngs:
+                replace_into(staged / "frames" / p.name, p)
+        else:
+            write_frames(out_dir, frames)
         same = False
     for kind in exports:
         if same and files[kind].is_file():
             continue
-        if kind in ("gif", "mp4"):
-            write_preview_video(files[kind], frames, fps)
-        elif kind == "oca":
+        if kind == "oca":
             keys = tuple(report.get("key_frames") or (0, len(frames) - 1))
             write_oca(out_dir / "oca", name, pngs, keys, frames.shape[1:3], fps)
+        elif staged is not None and (staged / ENCODED[kind]).is_file():
+            replace_into(staged / ENCODED[kind], files[kind])
         else:
-            write_alpha_video(files[kind], frames, fps)
+            _encode(kind, files[kind], frames, fps)
     for extra in (out_dir / "frames").glob("[0-9][0-9][0-9][0-9].png"):
         if int(extra.stem) >= len(frames):
             extra.unlink()

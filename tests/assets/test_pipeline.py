@@ -26,10 +26,16 @@ def executed(report: dict) -> set[str]:
     return {n for n, s in report["stages"].items() if not s["cached"]}
 
 
-def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, tmp_path):
+def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, tmp_path, monkeypatch):
+    from assets.run.staging import PREFIX, StagedOutputs
+
+    handed = []  # the staged folders run_shot put in place (written while Dagster recorded the last steps)
+    folder = StagedOutputs.folder
+    monkeypatch.setattr(StagedOutputs, "folder", lambda self, v: handed.append(folder(self, v)) or handed[-1])
     out = tmp_path / "out"
     first = run_shot(small_shot, out)
     assert executed(first) == set(STAGES)
+    assert len(handed) == 1 and handed[0] is not None and not list(out.glob(f"{PREFIX}*"))
     shot = json.loads((small_shot / "shot.json").read_text())
     n = len(shot["poses"]) if "frames" not in shot else shot["frames"]
     frames = frames_of(out)

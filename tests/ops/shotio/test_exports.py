@@ -60,3 +60,38 @@ def test_alpha_video_keeps_the_alpha_channel(tmp_path):
 def test_frames_are_named_by_output_frame(tmp_path):
     paths = write_frames(tmp_path, _frames(T=12))
     assert [p.name for p in paths][-1] == "0011.png"
+
+
+def _files(folder):
+    """{relative path: bytes} of every file under folder, report.json left out (it names no time of writing)."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != "report.json"}
+
+
+def test_staged_outputs_put_in_place_are_the_outputs_written_in_place(tmp_path):
+    from ops.shotio.frames import stage_outputs
+
+    frames, report = _frames(), {"partition": "s", "key_frames": [0, 6], "frames_version": "v"}
+    written, put = tmp_path / "written", tmp_path / "put"
+    write_outputs(written, frames, report, ("gif", "oca"), fps=12)
+    put.mkdir()
+    staged = stage_outputs(put / ".staging-1-x", frames, ("gif", "oca"), fps=12)
+    assert sorted(p.name for p in staged.iterdir()) == ["frames", "preview.gif"]  # the OCA links the final PNGs
+    write_outputs(put, frames, report, ("gif", "oca"), fps=12, staged=staged)
+    assert not [p for p in staged.rglob("*") if p.is_file()]  # moved, not copied
+    assert _files(put) == _files(written)
+    # the OCA's PNGs are the frames themselves (hard links), as when written in place
+    assert (put / "oca" / "s" / "inbetween" / "inbetween_00003.png").stat().st_ino == \
+        (put / "frames" / "0003.png").stat().st_ino
+
+
+def test_a_staged_folder_missing_files_falls_back_to_writing_them(tmp_path):
+    from ops.shotio.frames import stage_outputs
+
+    frames, report = _frames(T=4), {"partition": "s", "key_frames": [0, 3], "frames_version": "v"}
+    staged = stage_outputs(tmp_path / ".staging-1-x", frames, ("gif",), fps=12)
+    (staged / "frames" / "0002.png").unlink()  # a writer that died midway
+    (staged / "preview.gif").unlink()
+    write_outputs(tmp_path / "out", frames, report, ("gif",), fps=12, staged=staged)
+    assert sorted(p.name for p in (tmp_path / "out" / "frames").iterdir()) == [f"{i:04d}.png" for i in range(4)]
+    assert (tmp_path / "out" / "preview.gif").stat().st_size > 0
