@@ -190,6 +190,9 @@ def _board(args):
 
 
 def _run(args) -> int:
+    from . import processes
+
+    processes.warm_up()  # the workers' fork server imports the ops while this process imports and plans
     from .run import run_shot
 
     board = _board(args)

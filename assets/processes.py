@@ -63,6 +63,27 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _context() -> Any:
+    """multiprocessing's fork-server context, its server set to import PRELOAD (one server per process)."""
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(PRELOAD))
+    return ctx
+
+
+def warm_up() -> None:
+    """Start the fork server now, without a pool: its imports (about a second of CPU) overlap whatever this process
+    does next (a run's plan, on one core), so the pool that a run with stages to compute starts afterwards forks its
+    workers from a server that is ready. A command that computes nothing loses only that CPU: the server is no
+    child this process waits for, and it exits by itself once this process has (its end of a pipe closes)."""
+    if not enabled():
+        return
+    import multiprocessing.forkserver
+
+    _context()
+    with _lock, _main_module_hidden():  # the server would otherwise import this process's __main__ too
+        multiprocessing.forkserver.ensure_running()
+
+
 def pool() -> ProcessPoolExecutor | None:
     """This process's pool, started on first use (None when disabled). Its processes start on a thread of their
     own, right away: the fork server's imports (about a second) overlap whatever the caller does next, and an op
@@ -72,9 +93,7 @@ def pool() -> ProcessPoolExecutor | None:
         return None
     with _lock:
         if _pool is None:
-            ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload(list(PRELOAD))
-            _pool = ProcessPoolExecutor(WORKERS, mp_context=ctx, initializer=_ignore_sigint)
+            _pool = ProcessPoolExecutor(WORKERS, mp_context=_context(), initializer=_ignore_sigint)
             _started = threading.Event()
             threading.Thread(target=_start_workers, args=(_pool, _started), name="inbetween-processes",
                              daemon=True).start()

@@ -130,3 +130,46 @@ def test_a_spill_folder_of_a_process_that_is_gone_is_removed_by_the_next_one(tmp
         assert not stale.exists() and mine.is_dir()
     finally:
         shutil.rmtree(mine)  # the process's own folder is put back by monkeypatch
+
+
+_WARM_UP_AND_LEAVE = """
+import multiprocessing.forkserver, os, sys
+from assets import processes
+processes.warm_up()
+print(multiprocessing.forkserver._forkserver._forkserver_pid, flush=True)
+os._exit(0)  # as a command that computed nothing leaves (assets/run/leave.py)
+"""
+
+
+def test_a_warmed_up_fork_server_ends_by_itself_when_its_process_has():
+    """`inbetween run` starts the fork server before it plans; a run with nothing to compute never starts a pool,
+    and must leave no process behind it."""
+    import time
+
+    done = subprocess.run([sys.executable, "-c", _WARM_UP_AND_LEAVE], capture_output=True, text=True, timeout=60,
+                          cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+    pid = int(done.stdout.split()[-1])
+    deadline = time.monotonic() + 30  # it finishes its imports first (a second or two)
+    while time.monotonic() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"the fork server {pid} outlived its process by 30 s")
+
+
+_WARM_UP_THEN_POOL = """
+import multiprocessing.forkserver, os
+from assets import processes
+processes.warm_up()
+server = multiprocessing.forkserver._forkserver._forkserver_pid
+print(server, processes.run(os.getppid), flush=True)
+"""
+
+
+def test_a_pool_after_a_warm_up_forks_its_workers_from_that_server():
+    done = subprocess.run([sys.executable, "-c", _WARM_UP_THEN_POOL], capture_output=True, text=True, timeout=120,
+                          cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+    server, parent = done.stdout.split()
+    assert server == parent, done.stderr
