@@ -252,7 +252,10 @@ class WorkAhead:
             self.unwritten.append(name)
             self.cond.notify_all()
         if self.on_computed is not None and not outcome.cached:
-            self.on_computed(name, outcome.version, outcome.result.value)
+            try:
+                self.on_computed(name, outcome.version, outcome.result.value)
+            except Exception:  # noqa: BLE001  (a listener's failure is its own: the run goes on without it)
+                pass
 
     def _write(self) -> None:
         """The writer thread: each new output beside its place in the store, in the order the stages finished."""

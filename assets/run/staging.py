@@ -41,9 +41,12 @@ class StagedOutputs:
         with self._lock:
             if version in self._jobs:  # the same frames again (a retried execution)
                 return
-            self.out_dir.mkdir(parents=True, exist_ok=True)
-            _remove_stale(self.out_dir)
-            folder = Path(tempfile.mkdtemp(dir=self.out_dir, prefix=f"{PREFIX}{os.getpid()}-"))
+            try:
+                self.out_dir.mkdir(parents=True, exist_ok=True)
+                _remove_stale(self.out_dir)
+                folder = Path(tempfile.mkdtemp(dir=self.out_dir, prefix=f"{PREFIX}{os.getpid()}-"))
+            except OSError:  # OUT_DIR not writable: write_outputs meets it too, and reports it
+                return
             # not named inbetween-ahead-*: leaving the command waits for those (assets/run/leave.py)
             thread = threading.Thread(target=self._stage, args=(version, folder, value.frames), daemon=True,
                                       name="inbetween-staging")

@@ -60,3 +60,10 @@ def test_the_staging_folders_of_a_killed_process_are_removed_by_the_next(tmp_pat
     assert staged.folder("v1") is not None
     assert f"{PREFIX}{gone.stdout.strip()}-abc" not in _staging(out) and f"{PREFIX}{os.getpid()}-mine" in _staging(out)
     staged.discard()
+
+
+def test_an_out_dir_that_cannot_be_made_stages_nothing(tmp_path):
+    (tmp_path / "file").write_text("not a folder")
+    staged = StagedOutputs(tmp_path / "file" / "out", ("gif",), 12.0)
+    staged.on_computed("inbetween_frames", "v1", SimpleNamespace(frames=_frames()))  # no exception: nothing staged
+    assert staged.folder("v1") is None
