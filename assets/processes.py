@@ -202,14 +202,19 @@ def _spill_folder() -> Path:
         if _spill_dir is None or not _spill_dir.is_dir():
             shm = Path("/dev/shm")
             base = shm if shm.is_dir() and os.access(shm, os.W_OK) else Path(tempfile.gettempdir())
-            for old in base.glob(f"{SPILL_PREFIX}*"):
-                if not pid_alive(old.name[len(SPILL_PREFIX):].split("-")[0]):
-                    shutil.rmtree(old, ignore_errors=True)
+            remove_orphans(base, SPILL_PREFIX)
             _spill_dir = Path(tempfile.mkdtemp(prefix=f"{SPILL_PREFIX}{os.getpid()}-", dir=base))
         return _spill_dir
 
 
-def pid_alive(pid: str) -> bool:
+def remove_orphans(base: Path, prefix: str) -> None:
+    """Remove the folders `base`/`prefix`<pid>-* of processes that are gone (killed before they removed their own)."""
+    for old in base.glob(f"{prefix}*"):
+        if not _pid_alive(old.name[len(prefix):].split("-")[0]):
+            shutil.rmtree(old, ignore_errors=True)
+
+
+def _pid_alive(pid: str) -> bool:
     """Whether the process `pid` (a folder name's digits) still runs; an unreadable name counts as alive."""
     try:
         os.kill(int(pid), 0)

@@ -113,49 +113,42 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     started: time.perf_counter() when the command began (the CLI's start, imports included): report.json's
     seconds_total counts from it, so the one time figure the front ends print is the wall clock's.
     """
+    from ops.shotio.frames import write_outputs, write_report
+
     start = time.perf_counter() if started is None else started
     settings = settings or Settings()
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)
+    out_dir = Path(out_dir)
     staged = StagedOutputs(out_dir, exports, fps)  # the frames' files written while Dagster records the last steps
     try:
-        return _run_locked(shot, partition, Path(out_dir), settings, on_wait, verbose, executor, exports, fps, start,
-                           staged)
+        with shot_lock(partition, on_wait):
+            # what the report reads: taken from the run where it computed them (a shot saved meanwhile with other
+            # keys reads the rest from the store)
+            outputs = dict.fromkeys(["inbetween_frames", *(f"seg{s}/optimal_path" for s in range(shot.n_keys - 1))])
+            shot, executed = _settle(shot, settings, verbose, executor, outputs, staged.on_computed)
+            st = store()
+            frames = read_output("inbetween_frames", partition, outputs)
+            names = plan_stages(shot)
+            repairs = stage_warnings(partition, names)
+            segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend)
+                        for s in range(shot.n_keys - 1)]
+        stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
+                      "warnings": repairs.get(n, 0)} for n in names}
+        report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
+                  "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
+                  "keys": shot.n_keys, "key_frames": list(shot.key_frames),
+                  "blend": settings.blend if segments else "none", "template": settings.template_mode, "stages": stages,
+                  "frames_version": st.hash("inbetween_frames", partition), "segments": segments}
+        if segments:  # the first segment's, where a two-key (v1) shot always had it
+            report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames")}
+        report["seconds_total"] = round(time.perf_counter() - start, 3)  # so far: re-stamped once written
+        write_outputs(out_dir, frames.frames, report, exports, fps, staged.folder(report["frames_version"]))
+        report["seconds_total"] = round(time.perf_counter() - start, 3)
+        write_report(out_dir, report)
+        return report
     finally:
         staged.discard()
-
-
-def _run_locked(shot: Shot, partition: str, out_dir: Path, settings: Settings, on_wait: Callable[[], None] | None,
-                verbose: bool, executor: str, exports: tuple[str, ...], fps: float, start: float,
-                staged: StagedOutputs) -> dict:
-    """run_shot once the shot is validated and registered as `partition`."""
-    from ops.shotio.frames import write_outputs, write_report
-
-    with shot_lock(partition, on_wait):
-        # what the report reads: taken from the run where it computed them (a shot saved meanwhile with other
-        # keys reads the rest from the store)
-        outputs = dict.fromkeys(["inbetween_frames", *(f"seg{s}/optimal_path" for s in range(shot.n_keys - 1))])
-        shot, executed = _settle(shot, settings, verbose, executor, outputs, staged.on_computed)
-        st = store()
-        frames = read_output("inbetween_frames", partition, outputs)
-        names = plan_stages(shot)
-        repairs = stage_warnings(partition, names)
-        segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend)
-                    for s in range(shot.n_keys - 1)]
-    stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
-                  "warnings": repairs.get(n, 0)} for n in names}
-    report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
-              "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
-              "keys": shot.n_keys, "key_frames": list(shot.key_frames),
-              "blend": settings.blend if segments else "none", "template": settings.template_mode, "stages": stages,
-              "frames_version": st.hash("inbetween_frames", partition), "segments": segments}
-    if segments:  # the first segment's, where a two-key (v1) shot always had it
-        report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames")}
-    report["seconds_total"] = round(time.perf_counter() - start, 3)  # so far: re-stamped once written
-    write_outputs(out_dir, frames.frames, report, exports, fps, staged.folder(report["frames_version"]))
-    report["seconds_total"] = round(time.perf_counter() - start, 3)
-    write_report(out_dir, report)
-    return report
 
 
 def plan_stages(shot: Shot) -> tuple[str, ...]:

@@ -9,7 +9,6 @@ the ones staged (a shot saved meanwhile), leaves OUT_DIR as it was, and its stag
 """
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import tempfile
@@ -17,7 +16,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from ops.shotio.frames import stage_outputs
+from ops.shotio.frames import stage_outputs, written_version
 
 from .. import processes
 
@@ -36,14 +35,14 @@ class StagedOutputs:
 
     def on_computed(self, stage: str, version: str, value: Any) -> None:
         """A stage computed a new output (WorkAhead.on_computed): the frames' are staged on a thread of their own."""
-        if stage != STAGE or self._already_out(version):
+        if stage != STAGE or written_version(self.out_dir) == version:  # write_outputs writes none of them
             return
         with self._lock:
             if version in self._jobs:  # the same frames again (a retried execution)
                 return
             try:
                 self.out_dir.mkdir(parents=True, exist_ok=True)
-                _remove_stale(self.out_dir)
+                processes.remove_orphans(self.out_dir, PREFIX)  # of killed runs
                 folder = Path(tempfile.mkdtemp(dir=self.out_dir, prefix=f"{PREFIX}{os.getpid()}-"))
             except OSError:  # OUT_DIR not writable: write_outputs meets it too, and reports it
                 return
@@ -82,19 +81,3 @@ class StagedOutputs:
         for folder, thread in jobs:
             thread.join()
             shutil.rmtree(folder, ignore_errors=True)
-
-    def _already_out(self, version: str) -> bool:
-        """Whether OUT_DIR's report names these frames already (write_outputs then writes none of them)."""
-        try:
-            return json.loads((self.out_dir / "report.json").read_text()).get("frames_version") == version
-        except (OSError, ValueError, AttributeError):
-            return False
-
-
-def _remove_stale(out_dir: Path) -> None:
-    """Remove the staging folders of processes that are gone (killed before they could remove their own)."""
-    for old in out_dir.glob(f"{PREFIX}*"):
-        pid = old.name[len(PREFIX):].split("-")[0]
-        if not processes.pid_alive(pid):
-            shutil.rmtree(old, ignore_errors=True)
-

@@ -109,6 +109,15 @@ def stage_outputs(folder: str | Path, frames: np.ndarray, exports: tuple[str, ..
     return folder
 
 
+def written_version(out_dir: str | Path) -> str | None:
+    """The `frames_version` OUT_DIR's report.json names (the frames written there), or None."""
+    try:
+        version = json.loads((Path(out_dir) / "report.json").read_text()).get("frames_version")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return version if isinstance(version, str) else None
+
+
 def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tuple[str, ...] = ("gif",),
                   fps: float = 12.0, staged: Path | None = None) -> None:
     """OUT_DIR/frames/*.png, report.json and the asked exports (docs/shot-format.md); frames (T, H, W, 4)
@@ -127,12 +136,8 @@ def write_outputs(out_dir: Path, frames: np.ndarray, report: dict, exports: tupl
     out_dir.mkdir(parents=True, exist_ok=True)
     name = str(report.get("partition") or out_dir.name)
     pngs = [out_dir / "frames" / f"{i:04d}.png" for i in range(len(frames))]
-    files = {"gif": out_dir / "preview.gif", "mp4": out_dir / "preview.mp4", "oca": out_dir / "oca" / f"{name}.oca",
-             "mov": out_dir / "alpha.mov"}
-    try:
-        previous = json.loads((out_dir / "report.json").read_text()).get("frames_version")
-    except (OSError, ValueError):
-        previous = None
+    files = {**{kind: out_dir / file for kind, file in ENCODED.items()}, "oca": out_dir / "oca" / f"{name}.oca"}
+    previous = written_version(out_dir)
     same = previous is not None and previous == report.get("frames_version")
     if not (same and all(p.is_file() for p in pngs)):
         if staged is not None and all((staged / "frames" / p.name).is_file() for p in pngs):
