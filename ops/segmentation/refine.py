@@ -292,11 +292,13 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
         nests.append(group)
     domain, holes = mesh_domain(fg, masks.coverage, masks.holes)
     taken = np.any(occ, axis=0) if occ else np.zeros_like(fg)
-    slits = [s for s in (slit_of(c, taken, domain) for c in masks.contacts) if s is not None]
+    junction_points = np.concatenate([B[j] for B, j in zip(bounds, juncs)]) if bounds else np.zeros((0, 2))
+    slits = [s for s in (slit_of(c, taken, domain, junction_points) for c in masks.contacts) if s is not None]
     if other_pose is not None:  # the other keyframe tells which parts leave the bodies they cross
         touching = np.any(masks.contacts, axis=0) if masks.contacts else None
+        ends = np.array([s[e] for s in slits for e in (0, -1)]).reshape(-1, 2)  # a contact's slit may end on a junction
         slits += junction_slits(bounds, juncs, fronts, taken, domain, masks.coverage, pose, skeleton, other_pose,
-                                touching)
+                                touching, cut=ends)
     return RefinedMasks(
         foreground=fg,
         occlusion=occ,

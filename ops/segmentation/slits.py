@@ -23,40 +23,64 @@ SLIT_STEP_PX = 3  # spacing of a slit's polyline vertices along the contact
 REACH_OUTLINE_PX = 10.0  # a slit's end this close to the outline is carried on to it (across the notch where two bodies part)
 INK_COST = 8.0  # a junction slit's path: a pixel of character costs this many of paper
 MAX_INK_PX = 4.0  # ... and it crosses at most this much character (the stroke at the junction)
+JOIN_PX = 2 * AVOID_PX + 3  # a contact slit's end cut short by a region this near a T-junction is carried on to it
+MIN_JOINED_PX = 3  # ... and then this much of it is enough (the rest of the contact runs on inside the region)
 SEPARATE_PX = 16.0  # ... where the other keyframe takes the part this much farther off the body it crosses (a limb's width)
 
 
-def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray]) -> np.ndarray | None:
+def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray],
+            junctions: np.ndarray | None = None) -> np.ndarray | None:
     """(k, 2) float64 open polyline along a contact piece ((H, W) bool), AVOID_PX clear of `avoid` (the
     occlusion regions: their boundaries are mesh constraints the slit must not cross), each end carried on to
     the domain's outline (closed polylines) when within REACH_OUTLINE_PX of it so the cut opens there; None
-    when too little of the piece is left."""
+    when too little of the piece is left.
+
+    junctions: (n, 2) T-junctions on the regions' boundaries. A contact that runs on into a region (the limb
+    that touches the body beyond the part crossing it) is cut short by AVOID_PX there; its end is carried on to
+    a T-junction within JOIN_PX, where the region's own cut goes on, so no bridge of mesh is left between the
+    two cuts to glue the bodies together (lamp: the arm resting on the base beside the shade over it)."""
+    cut_off = np.zeros_like(piece)  # where the region cut the contact short: the band just outside its clearance
     if avoid.any():
-        piece = piece & ~ndimage.binary_dilation(avoid, iterations=AVOID_PX)
+        clear = ndimage.binary_dilation(avoid, iterations=AVOID_PX)
+        if (piece & clear).any():
+            cut_off = ndimage.binary_dilation(clear, iterations=2) & ~clear
+        piece = piece & ~clear
     labels, n = ndimage.label(piece, structure=np.ones((3, 3), bool))
     if n == 0:
         return None
     sizes = np.bincount(labels.ravel())[1:]
     piece = labels == 1 + int(np.argmax(sizes))
     path = longest_path(skeletonize(piece))
-    if len(path) < MIN_CONTACT_PX:
+    joins: list = [None, None]
+    if junctions is not None and len(junctions) and len(path):
+        J = np.asarray(junctions, np.float64)
+        gaps = [np.linalg.norm(J - np.asarray(end, np.float64), axis=1) for end in (path[0], path[-1])]
+        for e, end in enumerate((path[0], path[-1])):
+            if cut_off[int(end[1]), int(end[0])] and gaps[e].min() <= JOIN_PX * scale_of(piece.shape):
+                joins[e] = int(np.argmin(gaps[e]))
+        if joins[0] is not None and joins[0] == joins[1]:  # one junction: the nearer end goes to it
+            joins[int(gaps[0].min() <= gaps[1].min())] = None
+        joins = [None if j is None else J[j].tolist() for j in joins]
+    if len(path) < (MIN_JOINED_PX if any(joins) else MIN_CONTACT_PX):
         return None
     path = path[:: SLIT_STEP_PX][:-1].tolist() + [path[-1].tolist()]
     ends = []
-    for end in (path[0], path[-1]):
+    for end, join in zip((path[0], path[-1]), joins):
         dist, foot = _nearest_on(np.asarray(end, np.float64), domain)
-        ends.append(foot.tolist() if 0.5 <= dist <= REACH_OUTLINE_PX else None)
+        ends.append(join if join is not None else foot.tolist() if 0.5 <= dist <= REACH_OUTLINE_PX else None)
     out = ([ends[0]] if ends[0] else []) + path + ([ends[1]] if ends[1] else [])
     return np.asarray(out, np.float64)
 
 
 def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], front_bones: list[np.ndarray],
                    regions: np.ndarray, domain: list[np.ndarray], coverage: np.ndarray, pose: np.ndarray,
-                   skeleton: Skeleton, other_pose: np.ndarray | list[np.ndarray], contacts: np.ndarray | None = None
-                   ) -> list[np.ndarray]:
+                   skeleton: Skeleton, other_pose: np.ndarray | list[np.ndarray], contacts: np.ndarray | None = None,
+                   cut: np.ndarray | None = None) -> list[np.ndarray]:
     """Open polylines (n, 2) float64 from T-junctions out through the paper to the mesh's outline (or a hole's).
     regions: (H, W) bool pixels of the occlusion regions, which a slit does not cross; contacts: (H, W) bool
-    strokes where two bodies touch (ops.segmentation.contacts), which a way out runs along as on paper.
+    strokes where two bodies touch (ops.segmentation.contacts), which a way out runs along as on paper; cut:
+    (m, 2) points where a slit already ends (a contact's, carried on to a junction by slit_of): such a junction
+    has its way out, and a second slit beside it would leave a sliver of mesh between the two.
 
     At a T-junction a part's outline passes in front of another body's. The region's cut stops there, on the
     drawn stroke, but the mesh reaches on past the outline (its soft rim and margin) and fills the concave
@@ -90,6 +114,8 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
         if not len(front) or not len(behind):
             continue
         for p in np.asarray(B, np.float64)[np.asarray(J, np.int64)]:
+            if cut is not None and len(cut) and np.min(np.linalg.norm(cut - p, axis=1)) < 1e-6:
+                continue  # a contact's slit already goes on from this junction: its way out
             dist = np.array([segment_distance(p, a, b) for a, b in ends_xy])
             f = front[np.argmin(dist[front])]
             crossed = behind[~adjacent[f, behind]]  # the part's own chain (the upper arm of a forearm) crosses nothing

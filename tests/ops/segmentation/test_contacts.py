@@ -10,7 +10,7 @@ from ops.segmentation import contacts as contacts_mod
 from ops.segmentation.contacts import drawn_bodies, stroke_contacts, thin_overlaps
 from ops.segmentation.masks import build_masks
 from ops.segmentation.refine import refine_masks
-from ops.segmentation.slits import AVOID_PX, slit_of
+from ops.segmentation.slits import AVOID_PX, JOIN_PX, slit_of
 from ops.types import Skeleton
 from tests.ops.segmentation.test_masks import capsule, ink_drawing, outline
 
@@ -155,6 +155,32 @@ def test_slit_of_a_contact_keeps_clear_of_regions_and_reaches_the_outline():
     assert blocked[:, 1].max() < 100 - AVOID_PX + 1
 
 
+def test_a_contact_cut_short_by_a_region_is_carried_on_to_its_t_junction():
+    """A contact that runs on into an occlusion region keeps AVOID_PX clear of it; when a T-junction of the region
+    lies within JOIN_PX of where it stops, the slit ends on that junction (no bridge of mesh is left between the
+    two cuts), and then a short remainder is enough. Far from every junction it stays as before."""
+    contact = np.zeros((SIZE, SIZE), bool)
+    contact[95:112, 60] = True  # 17 px of stroke, the last 12 of them in or beside the region below
+    region = np.zeros_like(contact)
+    region[104:130, 50:70] = True
+    loop = np.array([[20.0, 37.0], [140.0, 37.0], [140.0, 150.0], [20.0, 150.0]])
+    assert slit_of(contact, region, [loop]) is None  # 4 px left outside: too short alone
+    junction = np.array([[60.0, 103.5]])
+    joined = slit_of(contact, region, [loop], junctions=junction)
+    assert joined is not None
+    ends = {tuple(joined[0]), tuple(joined[-1])}
+    assert tuple(junction[0]) in ends  # ends exactly on the junction: a vertex of both cuts
+    assert min(y for _, y in ends) == 95.0
+    far = np.array([[60.0 + JOIN_PX + 8.0, 103.5]])
+    assert slit_of(contact, region, [loop], junctions=far) is None
+    whole = np.zeros_like(contact)
+    whole[60:120, 60] = True  # long enough alone: joined at the region's end, the far end as before
+    long_slit = slit_of(whole, region, [loop], junctions=junction)
+    assert {tuple(long_slit[0]), tuple(long_slit[-1])} == {(60.0, 60.0), tuple(junction[0])}
+    untouched = slit_of(whole, np.zeros_like(whole), [loop], junctions=junction)  # no region cut it short
+    assert {untouched[0, 1], untouched[-1, 1]} == {60.0, 119.0}
+
+
 def test_thin_hip_region_is_slit_not_pocketed_unless_clicked():
     """refine_masks drops an overlap region that only follows a contact, and keeps it when the user clicked a
     T-junction on it."""
@@ -280,3 +306,23 @@ def test_gap_sides_in_the_gaps_box_equal_the_whole_images_transforms():
         got = contacts_mod.gap_sides(gap, owned, side, 5)
         assert want.any() and np.array_equal(got, want)
     assert not contacts_mod.gap_sides(np.zeros(shape, bool), owned, 2, 5).any()
+
+
+def test_the_lamps_arm_resting_on_the_base_is_cut_through_to_the_shades_junction():
+    """data_samples/lamp, key0: the shade hangs over the base's end (a region with two T-junctions) and the arm
+    above it rests on the base. The contact between arm and base stops AVOID_PX short of the region; carried on
+    to the upper junction, it leaves no bridge of mesh there, which had dragged the base's end up with the shade
+    as a web of stretched ink in key0's lane. Every junction is the end of one slit, never of two."""
+    from ops.shotio.image_io import read_image, to_rgba
+    from ops.shotio.load import load_shot
+
+    shot = load_shot(SAMPLES / "lamp")
+    pose = shot.key_pose(0)
+    masks = build_masks(to_rgba(read_image(shot.keyframes[0])), pose, shot.skeleton, occlusion="hybrid")
+    refined = refine_masks(masks, np.asarray(shot.t_junctions[0], float), pose, shot.skeleton,
+                           other_pose=[shot.key_pose(1)])
+    junctions = np.concatenate([B[j] for B, j in zip(refined.boundaries, refined.junctions)])
+    assert len(junctions) == 2
+    ends = np.array([s[e] for s in refined.slits for e in (0, -1)])
+    for p in junctions:
+        assert np.sum(np.linalg.norm(ends - p, axis=1) < 1e-6) == 1, (p, ends)

@@ -106,3 +106,14 @@ def test_a_junction_slit_runs_out_along_a_contact_where_the_bodies_touch():
     _, d = project_to_polyline(slit[0][-1][None], domain[0])
     assert d[0] < 1e-6  # ends on the mesh's outline
     assert (slit[0][-1] > corner + 5).all()  # out through the filled corner, down and to the right
+
+
+def test_a_junction_a_contacts_slit_already_leaves_gets_no_second_slit():
+    """Where a contact's slit was carried on to a T-junction (slits.slit_of), that slit is the junction's way out:
+    a second one beside it would leave a sliver of mesh between the two."""
+    cov, domain, bounds, juncs, front, region, pose, skeleton, apart = crossing(between=3)
+    taken = CORNERS[[0, 2]]
+    slits = junction_slits(bounds, juncs, front, region, domain, cov, pose, skeleton, apart, cut=taken)
+    starts = np.array([s[0] for s in slits])
+    assert len(slits) == 2
+    assert np.allclose(np.sort(starts, axis=0), np.sort(CORNERS[[1, 3]], axis=0))
