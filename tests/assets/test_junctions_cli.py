@@ -34,3 +34,9 @@ def test_proposals_go_to_keys_without_clicks_and_only_when_written(home, tmp_pat
     assert (shot / "shot.json.bak").is_file()
     assert main(["junctions", str(shot)]) == 0  # every key has clicks now
     assert "nothing to propose" in capsys.readouterr().out
+    # written from the command line, the proposals become clicks: it says so, and where to check them
+    data["t_junctions"][1] = []
+    (shot / "shot.json").write_text(json.dumps(data))
+    assert main(["junctions", str(shot), "--write", "--min-score", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "wrote" in out and "they count as clicks now" in out and "refined_masks" in out
