@@ -3,7 +3,8 @@ and one from each T-junction where a part crosses a body it is not joined to, ou
 
 A contact's slit follows the middle of its stroke, keeps clear of the occlusion regions (their boundaries
 are mesh constraints it must not cross), and an end near the outline is carried on to it, so the cut opens
-a flap there rather than a slot.
+a flap there rather than a slot. An end that a region cut short is carried on to that region's T-junction
+instead, so the two cuts meet.
 """
 from __future__ import annotations
 
