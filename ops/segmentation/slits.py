@@ -40,11 +40,32 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray],
     that touches the body beyond the part crossing it) is cut short by AVOID_PX there; its end is carried on to
     a T-junction within JOIN_PX, where the region's own cut goes on, so no bridge of mesh is left between the
     two cuts to glue the bodies together (lamp: the arm resting on the base beside the shade over it)."""
-    cut_off = np.zeros_like(piece)  # where the region cut the contact short: the band just outside its clearance
-    if avoid.any():
-        clear = ndimage.binary_dilation(avoid, iterations=AVOID_PX)
+    return _slit_along(piece, *_clearance(avoid), domain, junctions)
+
+
+def contact_slits(contacts: list[np.ndarray], avoid: np.ndarray, domain: list[np.ndarray],
+                  junctions: np.ndarray | None = None) -> list[np.ndarray]:
+    """slit_of for each contact piece ((H, W) bool) that keeps one, the regions' clearance computed once."""
+    clear, band = _clearance(avoid)
+    return [s for s in (_slit_along(c, clear, band, domain, junctions) for c in contacts) if s is not None]
+
+
+def _clearance(avoid: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """(H, W) bool pixels within AVOID_PX of the regions `avoid`, and the band just outside them (where a contact
+    the regions cut short stops); (None, None) without regions."""
+    if not avoid.any():
+        return None, None
+    clear = ndimage.binary_dilation(avoid, iterations=AVOID_PX)
+    return clear, ndimage.binary_dilation(clear, iterations=2) & ~clear
+
+
+def _slit_along(piece: np.ndarray, clear: np.ndarray | None, band: np.ndarray | None, domain: list[np.ndarray],
+                junctions: np.ndarray | None) -> np.ndarray | None:
+    """slit_of, given the regions' clearance and the band around it (_clearance)."""
+    cut_off = None  # where the regions cut this contact short
+    if clear is not None:
         if (piece & clear).any():
-            cut_off = ndimage.binary_dilation(clear, iterations=2) & ~clear
+            cut_off = band
         piece = piece & ~clear
     labels, n = ndimage.label(piece, structure=np.ones((3, 3), bool))
     if n == 0:
@@ -53,7 +74,7 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray],
     piece = labels == 1 + int(np.argmax(sizes))
     path = longest_path(skeletonize(piece))
     joins: list = [None, None]
-    if junctions is not None and len(junctions) and len(path):
+    if cut_off is not None and junctions is not None and len(junctions) and len(path):
         J = np.asarray(junctions, np.float64)
         gaps = [np.linalg.norm(J - np.asarray(end, np.float64), axis=1) for end in (path[0], path[-1])]
         for e, end in enumerate((path[0], path[-1])):
