@@ -33,7 +33,7 @@ from skimage.graph import route_through_array
 
 from ops.geometry.snap import snap_into
 from ops.types import MIN_BONE_PX, Skeleton, bone_frames
-from ops.warning_subject import about, inside_point
+from ops.warning_subject import about
 
 SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (its outlines are DP-simplified by 1 px)
 BONE_SAMPLES = 33  # points tried along a bone when a component needs a handle
@@ -102,7 +102,9 @@ def domain_mask(domain: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
 
 def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray], shape: tuple[int, int]) -> Handles:
     """Joint and midpoint handles of a (J, 3) pose moved safely inside the domain (closed polylines, pixels, in an
-    (H, W) image), plus one handle on a bone for every component that it crosses but no handle reaches."""
+    (H, W) image), plus one handle for every component no handle reaches: on a bone that crosses it, or, where
+    none does (a stroke of an outline drawn in pieces beside its bone), at its deepest point, following the
+    nearest bone with its offset from it."""
     P, W, names = handle_points(pose, skeleton)
     xy = np.asarray(pose, np.float64)[:, :2]
     inside = domain_mask(domain, shape)
@@ -134,19 +136,22 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
             k = int(np.argmax(depth))
             if depth[k] > 0 and (best is None or depth[k] > best[0]):
                 best = (depth[k], b, u[k])
-        if best is None:
-            part = labels == comp
-            warnings.append(about("part of the drawing", f"({int(part.sum())} px) that no bone crosses has no handle: "
-                                  "it stays where it is drawn", at=inside_point(part),
-                                  fix="extend a bone over it or paint it out of the mask"))
-            continue
+        at = None  # the handle sits on the bone where the bone crosses the part, else inside the part beside it
+        if best is None:  # a stroke of an outline drawn in pieces beside its bone: it follows the nearest bone
+            depth = np.where(labels == comp, dist, -1.0)
+            row, col = np.unravel_index(int(np.argmax(depth)), depth.shape)
+            at = np.array([col, row], np.float64)
+            near = [(*_distance_along(at, xy[i], xy[j]), b) for b, (i, j) in enumerate(skeleton.bones)]
+            _, u_at, b_at = min(near)
+            best = (0.0, b_at, u_at)
         _, b, t = best
         p, c = skeleton.bones[b]
         w = np.zeros(len(skeleton.joints))
         w[p], w[c] = 1.0 - t, t
-        extra_P.append(w @ xy)
+        extra_P.append(w @ xy if at is None else at)
         extra_W.append(w)
-        extra_names.append(f"{skeleton.joints[p]}-{skeleton.joints[c]} at {t:.2f} (a separate part of the drawing)")
+        extra_names.append(f"{skeleton.joints[p]}-{skeleton.joints[c]} at {t:.2f} (a separate part of the drawing"
+                           + (")" if at is None else ", beside the bone)"))
     if extra_P:
         P, W, names = np.vstack([P, extra_P]), np.vstack([W, extra_W]), names + extra_names
     frames = _frame_of(W, skeleton, xy)
@@ -154,6 +159,14 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
     off = P - W @ xy
     offsets = np.stack([(off * along).sum(1), (off * across).sum(1)], axis=1)
     return Handles(P, W, offsets, frames, names, warnings)
+
+
+def _distance_along(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """(distance, pixels, from a (2,) point to the segment a-b; the segment parameter t in [0, 1] nearest it)."""
+    d = b - a
+    L2 = float(d @ d)
+    t = 0.0 if L2 < 1e-12 else float(np.clip((point - a) @ d / L2, 0.0, 1.0))
+    return float(np.linalg.norm(point - (a + t * d))), t
 
 
 def drawn_path(safe: np.ndarray, dist: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:

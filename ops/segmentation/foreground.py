@@ -43,6 +43,10 @@ BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touc
 WALL_SCALE, WALL_MARGIN_PX = 2.0, 4.0  # ink within WALL_SCALE x body radius + margin of a bone belongs to that body part
 MARGIN_PX = 2  # the mask reaches this far past the ink: the 2-px Douglas-Peucker mesh boundary keeps the soft edge
 TRANSPARENT_SHARE = 0.01  # RGBA with more than this share of pixels not fully opaque is a cut-out
+STROKE_AREA = 4.0  # an untouched stroke this many closing radii squared (16 px at 256 px) or more is no speck
+NEAR_SHARE = 0.9  # ... and is kept when this share of it lies within a body's reach of a bone
+ELONGATION = 2.0  # ... and a stroke, at least this many times longer than wide
+LIMB_SHARE = 0.35  # ... the reach of a bone for that: at least this share of its length
 MIN_BONE_SAMPLES = 3  # bone samples (2 px apart) in a region the frame cuts open that make it an inside
 
 
@@ -94,6 +98,23 @@ def bone_touched(mask: np.ndarray, touch: np.ndarray) -> tuple[np.ndarray, list[
         sizes[0] = 0
         return labels == int(np.argmax(sizes)), ["no bone touches the drawing; kept its largest part (check the pose)"]
     return np.isin(labels, ids), []
+
+
+def strokes_near_bones(untouched: np.ndarray, near: np.ndarray, min_area: float) -> np.ndarray:
+    """(H, W) bool: the 8-connected components of the (H, W) bool ink no bone touches that lie within a body's
+    reach of a bone (NEAR_SHARE of their pixels in the (H, W) bool `near`) and are strokes, not specks (at least
+    min_area pixels): the pieces of an outline drawn in separate strokes beside its limb's bone."""
+    labels, n = ndimage.label(untouched, structure=np.ones((3, 3), bool))
+    if n == 0:
+        return np.zeros_like(untouched)
+    area = np.bincount(labels.ravel(), minlength=n + 1)
+    inside = np.bincount(labels[near], minlength=n + 1)
+    # a stroke is long for its width: its area is many times that of the widest disc it holds (a dot is not)
+    width = np.zeros(n + 1)
+    np.maximum.at(width, labels.ravel(), cv2.distanceTransform(untouched.astype(np.uint8), cv2.DIST_L2, 5).ravel())
+    keep = (area >= min_area) & (inside >= NEAR_SHARE * area) & (area >= ELONGATION * 4.0 * width ** 2)
+    keep[0] = False
+    return keep[labels]
 
 
 def fill_insides(ink: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -252,6 +273,15 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     radii = bone_radii(silhouette, pose, skeleton)
     reach = WALL_SCALE * radii + WALL_MARGIN_PX
     near = bone_capsules(shape, pose, skeleton, reach)
+    ends = pose[np.asarray(skeleton.bones)][..., :2]  # (B, 2, 2): a limb's outline lies about LIMB_SHARE of its bone's
+    # length from it however its inside was drawn (an outline in separate strokes leaves the radii at a stroke's width)
+    limb = LIMB_SHARE * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
+    outline = bone_capsules(shape, pose, skeleton, np.maximum(reach, limb))
+    strokes = strokes_near_bones((filled | broken) & ~silhouette, outline, STROKE_AREA * r * r)
+    if strokes.any():
+        silhouette = silhouette | strokes
+        warnings.append(f"kept {_count(strokes)} stroke(s) that no bone touches but that lie within a body's reach "
+                        "of one (an outline drawn in separate strokes); check the foreground preview")
     holes = find_holes(silhouette, sealed, touch, near, points, reach[owner], min_radius=r)
     solid = silhouette & ~holes
 
