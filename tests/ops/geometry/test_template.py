@@ -147,6 +147,29 @@ def test_every_component_a_bone_crosses_gets_a_handle(midpoint_handles):
     assert (base.handle_vertex >= 0).all() and len(base.handle_vertex) == 6
 
 
+def test_a_part_no_bone_crosses_follows_the_nearest_bone(midpoint_handles):
+    """A stroke of an arm's outline drawn apart, 8 px beside the arm's bone: one handle at its deepest point,
+    bound to the nearest bone where the stroke lies along it, and carried with that bone's turn."""
+    body = np.array([[2, 2], [30, 2], [30, 30], [2, 30]], float)
+    arm = np.array([[40, 12], [90, 12], [90, 20], [40, 20]], float)  # the bone b-c runs through it
+    stroke = np.array([[52, 26], [76, 26], [76, 30], [52, 30]], float)  # 8-12 px below the bone, 4 px thick
+    sk = Skeleton(joints=("a", "b", "c"), parents=np.array([-1, 0, 1]))
+    pose = np.array([[10.0, 16.0, 0.0], [20.0, 16.0, 0.0], [96.0, 16.0, 0.0]])
+    h = place_handles(pose, sk, [body, arm, stroke], (40, 100))
+    beside = [i for i, n in enumerate(h.names) if "beside the bone" in n]
+    assert len(beside) == 1 and points_in_polygon(h.points[beside], stroke).all()
+    i = beside[0]
+    t = (h.points[i, 0] - 20.0) / 76.0  # where along b-c the handle lies
+    assert np.allclose(h.weights[i], [0.0, 1.0 - t, t]) and h.frames[i].tolist() == [1, 2]
+    assert np.allclose(handle_targets(h.weights, h.offsets, h.frames, pose), h.points)
+    turned = pose.copy()
+    turned[2, :2] = [20.0, 16.0 + 76.0]  # the arm turns 90 degrees about b: the stroke turns with it
+    target = handle_targets(h.weights, h.offsets, h.frames, turned)[i]
+    rot = np.array([[0.0, -1.0], [1.0, 0.0]]) @ (h.points[i] - pose[1, :2]) + pose[1, :2]
+    assert np.allclose(target, rot)
+    assert not any("no handle" in w for w in h.warnings)
+
+
 def test_holes_are_not_meshed_and_components_are():
     """Two components, one with a hole: no face inside the hole or between the components."""
     outer = np.array([[2, 2], [40, 2], [40, 40], [2, 40]], float)

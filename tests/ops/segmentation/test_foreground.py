@@ -205,6 +205,28 @@ def test_every_bone_touched_component_is_kept_and_specks_dropped():
     assert not fg.mask[area(speck) > 0].any() and not fg.mask[area(scribble) > 0].any()
 
 
+def test_an_arm_outlined_in_separate_strokes_beside_its_bone_is_kept():
+    """Faint pencil: an arm's outline drawn as dashes 7 px either side of its bone, no bone touching them and no
+    inside enclosed. The dashes (strokes, within a body's reach) are kept with a warning; a dot as near the bone
+    and a stroke 30 px from every bone are not."""
+    shape = (160, 160)
+    p = subgrid(shape)
+    body = capsule_sdf(p, (40, 30), (40, 130), 2.0) <= 0  # a stick body, on its bone
+    dashes = np.zeros(p.shape[:2], bool)
+    for x0 in (62, 84, 106):  # three dashes on each side of the arm's bone (y = 60), 8 px apart
+        for y in (53, 67):
+            dashes |= capsule_sdf(p, (x0, y), (x0 + 12, y), 1.2) <= 0
+    dot = capsule_sdf(p, (75, 84), (75, 84), 2.5) <= 0  # a dot 24 px below the bone, within its reach: no stroke
+    far = capsule_sdf(p, (80, 120), (110, 120), 1.2) <= 0  # a stroke 60 px from the arm, 40 from the body
+    drawing = noisy(paint(OFF_WHITE, [(area(body | dashes | dot | far), INK)]))
+    skeleton = Skeleton(("hips", "neck", "hand"), np.array([-1, 0, 1]))
+    pose = np.array([[40, 130, 0], [40, 60, 0], [130, 60, 0.0]])
+    fg = segment_foreground(drawing, pose, skeleton)
+    assert fg.mask[area(body) >= 0.5].all() and fg.mask[area(dashes) >= 0.5].all()
+    assert not fg.mask[area(dot) > 0].any() and not fg.mask[area(far) > 0].any()
+    assert any("kept 6 stroke(s)" in w for w in fg.warnings)
+
+
 def dashed_ellipse(p: np.ndarray, centre, radii, half: float, gaps: int, gap_px: float) -> np.ndarray:
     """(..., ) bool: an ellipse's outline of stroke half-width `half` at (..., 2) points p, broken by `gaps`
     evenly spaced gaps about gap_px long (along the outline)."""
