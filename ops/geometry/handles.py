@@ -39,6 +39,8 @@ SAFE_INSET_PX = 2  # snapped handles land this far inside the domain's raster (i
 BONE_SAMPLES = 33  # points tried along a bone when a component needs a handle
 BONE_FRACTIONS = (1 / 6, 2 / 6, 0.5, 4 / 6, 5 / 6)  # handles along each bone besides its joints
 STRAY_FRACTION = 0.25  # a bone whose line crosses paper for more of its length: handles on the drawn limb
+FAR_PART_PX, FAR_PART_SHARE = 10.0, 0.5  # a part no bone crosses this far from the bone it follows (px, or share of
+#                                          that bone's length, whichever is more) is named in a warning
 MAX_DETOUR = 3.0  # the drawn limb may be at most this many times the bone's length (else the bone line is kept)
 
 
@@ -142,8 +144,14 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
             row, col = np.unravel_index(int(np.argmax(depth)), depth.shape)
             at = np.array([col, row], np.float64)
             near = [(*_distance_along(at, xy[i], xy[j]), b) for b, (i, j) in enumerate(skeleton.bones)]
-            _, u_at, b_at = min(near)
+            d_at, u_at, b_at = min(near)
             best = (0.0, b_at, u_at)
+            i, j = skeleton.bones[b_at]
+            if d_at > max(FAR_PART_PX, FAR_PART_SHARE * float(np.linalg.norm(xy[j] - xy[i]))):
+                warnings.append(about("part of the drawing", f"({int((labels == comp).sum())} px) that no bone crosses "
+                                      f"follows the nearest bone, {skeleton.joints[i]}-{skeleton.joints[j]}, "
+                                      f"{d_at:.0f} px away", at=at,
+                                      fix="extend a bone over it or paint it out of the mask"))
         _, b, t = best
         p, c = skeleton.bones[b]
         w = np.zeros(len(skeleton.joints))

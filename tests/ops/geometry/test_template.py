@@ -167,7 +167,17 @@ def test_a_part_no_bone_crosses_follows_the_nearest_bone(midpoint_handles):
     target = handle_targets(h.weights, h.offsets, h.frames, turned)[i]
     rot = np.array([[0.0, -1.0], [1.0, 0.0]]) @ (h.points[i] - pose[1, :2]) + pose[1, :2]
     assert np.allclose(target, rot)
-    assert not any("no handle" in w for w in h.warnings)
+    assert not any("part of the drawing" in w for w in h.warnings)  # 10 px from a 76 px bone: no warning
+    far = np.array([[52, 32], [76, 32], [76, 38], [52, 38]], float)  # 16-22 px below the arm's bone
+    h_far = place_handles(pose, sk, [body, arm, far], (40, 100))
+    assert sum("beside the bone" in n for n in h_far.names) == 1
+    assert not any("part of the drawing" in w for w in h_far.warnings)
+    lone = np.array([[36, 31], [46, 31], [46, 39], [36, 39]], float)  # 15-23 px beside a 24 px bone: far for it
+    sk2 = Skeleton(joints=("a", "b", "c"), parents=np.array([-1, 0, 1]))
+    pose2 = np.array([[10.0, 16.0, 0.0], [20.0, 16.0, 0.0], [44.0, 16.0, 0.0]])
+    h_lone = place_handles(pose2, sk2, [body, np.array([[32, 12], [50, 12], [50, 20], [32, 20]], float), lone],
+                           (40, 100))
+    assert sum("part of the drawing" in w and "b-c" in w for w in h_lone.warnings) == 1
 
 
 def test_holes_are_not_meshed_and_components_are():
