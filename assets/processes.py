@@ -44,6 +44,7 @@ WORKERS = 2  # the machine's cores: the two lanes
 # what the stages offload needs, imported once in the fork server (and never Dagster or torch)
 PRELOAD = ("ops.appearance.lane", "ops.geometry.topology", "ops.segmentation.masks")
 STARTUP_WAIT_S = 30.0  # at exit, how long the workers still being started are waited for
+MANAGER_WAIT_S = 2.0  # at exit, how long the pool's manager thread is given to clean up after its killed workers
 ENV_SWITCH = "INBETWEEN_PROCESSES"  # "0": every op in the calling thread (a batch worker's shot, a debugger)
 SPILL_BYTES = 1 << 20  # a pickled argument list or result larger than this travels as a file, not through the pipe
 SPILL_PREFIX = "inbetween-spill-"  # + this process's pid + "-": the folder of its files
@@ -251,8 +252,12 @@ def shutdown() -> None:
         folder, _spill_dir = _spill_dir, None
     if executor is not None:
         started.wait(STARTUP_WAIT_S)
+        manager = getattr(executor, "_executor_manager_thread", None)  # shutdown() forgets it
         for p in list(getattr(executor, "_processes", {}).values()):  # what shutdown(wait=False) leaves running
             p.kill()  # not terminate(): under nohup or a scheduler that ignores SIGTERM the workers inherit SIG_IGN
         executor.shutdown(wait=False, cancel_futures=True)
+        if manager is not None:  # it sees the killed workers and closes the pool's pipes: let it finish before
+            manager.join(MANAGER_WAIT_S)  # the exit handlers after this one run, or it closed a pipe they had
+            #                               closed already and printed the error ("Bad file descriptor") at exit
     if folder is not None:
         shutil.rmtree(folder, ignore_errors=True)
