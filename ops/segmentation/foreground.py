@@ -8,7 +8,8 @@
    open (a leg running off the bottom edge) where a bone runs through them, and insides a bone runs through
    the middle of whose outline is drawn in strokes with wider breaks (closed at four times the radius for them
    alone).
-4. The skeleton is the prior: every component a bone touches is kept, specks no bone touches dropped.
+4. The skeleton is the prior: every component a bone touches is kept, and so is a stroke no bone touches that
+   lies within a limb's reach of one (an outline drawn in separate strokes); specks and dots there are dropped.
 5. Enclosed paper that is background seen through the body becomes a hole (ops.segmentation.holes).
 6. The edge gets fractional coverage and the colour unmixed from the paper (ops.segmentation.coverage);
    the mask reaches MARGIN_PX past the ink, a rim whose coverage falls to 0, so that the mesh boundary,
@@ -102,8 +103,9 @@ def bone_touched(mask: np.ndarray, touch: np.ndarray) -> tuple[np.ndarray, list[
 
 def strokes_near_bones(untouched: np.ndarray, near: np.ndarray, min_area: float) -> np.ndarray:
     """(H, W) bool: the 8-connected components of the (H, W) bool ink no bone touches that lie within a body's
-    reach of a bone (NEAR_SHARE of their pixels in the (H, W) bool `near`) and are strokes, not specks (at least
-    min_area pixels): the pieces of an outline drawn in separate strokes beside its limb's bone."""
+    reach of a bone (NEAR_SHARE of their pixels in the (H, W) bool `near`) and are strokes, not specks or dots (at
+    least min_area pixels, ELONGATION times longer than wide): the pieces of an outline drawn in separate strokes
+    beside its limb's bone."""
     labels, n = ndimage.label(untouched, structure=np.ones((3, 3), bool))
     if n == 0:
         return np.zeros_like(untouched)
@@ -280,7 +282,8 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     strokes = strokes_near_bones((filled | broken) & ~silhouette, outline, STROKE_AREA * r * r)
     if strokes.any():
         silhouette = silhouette | strokes
-        warnings.append(f"kept {_count(strokes)} stroke(s) that no bone touches but that lie within a body's reach "
+        kept = ndimage.label(strokes, structure=np.ones((3, 3), bool))[1]
+        warnings.append(f"kept {kept} stroke(s) that no bone touches but that lie within a body's reach "
                         "of one (an outline drawn in separate strokes); check the foreground preview")
     holes = find_holes(silhouette, sealed, touch, near, points, reach[owner], min_radius=r)
     solid = silhouette & ~holes
