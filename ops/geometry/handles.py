@@ -140,15 +140,15 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
                 best = (depth[k], b, u[k])
         at = None  # the handle sits on the bone where the bone crosses the part, else inside the part beside it
         if best is None:  # a stroke of an outline drawn in pieces beside its bone: it follows the nearest bone
-            depth = np.where(labels == comp, dist, -1.0)
-            row, col = np.unravel_index(int(np.argmax(depth)), depth.shape)
+            part = labels == comp
+            row, col = np.unravel_index(int(np.argmax(np.where(part, dist, -1.0))), part.shape)
             at = np.array([col, row], np.float64)
             near = [(*_distance_along(at, xy[i], xy[j]), b) for b, (i, j) in enumerate(skeleton.bones)]
             d_at, u_at, b_at = min(near)
             best = (0.0, b_at, u_at)
             i, j = skeleton.bones[b_at]
             if d_at > max(FAR_PART_PX, FAR_PART_SHARE * float(np.linalg.norm(xy[j] - xy[i]))):
-                warnings.append(about("part of the drawing", f"({int((labels == comp).sum())} px) that no bone crosses "
+                warnings.append(about("part of the drawing", f"({int(part.sum())} px) that no bone crosses "
                                       f"follows the nearest bone, {skeleton.joints[i]}-{skeleton.joints[j]}, "
                                       f"{d_at:.0f} px away", at=at,
                                       fix="extend a bone over it or paint it out of the mask"))
