@@ -174,8 +174,9 @@ def _deformed(s: int, k: int):
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
                 "iterations_total": int(seq.iterations.sum()), "inpainted_share_max": share_max(seq.inpainted),
                 "distorted_share_max": share_max(seq.distorted), "registered": seq.fade is not None}
-        if seq.fade is not None:  # the injectivity cap leaves a frame short of its eased weight, if ever
+        if seq.fade is not None:  # the injectivity cap often leaves frames short of their eased weight (lanes.md)
             meta["registration_weight_at_other_key"] = float(seq.fade[0 if backward else -1])
+            meta["registration_weight"] = [round(float(w), 3) for w in seq.fade]
         marks = [(seq.inpainted, preview.INPAINTED_TINT), (seq.distorted, preview.DISTORTED_TINT)]
         return StageResult(seq, meta, preview.frame_strip(seq.images, marks=marks))
 
