@@ -7,6 +7,8 @@ Rows: key0's lane (its template deformed through the motion: the image matrix at
 the blend the optimal path takes (its alpha printed), and the shot's ground truth where it has one. Columns: the
 segment's output times (every `every`-th, the keys always). Every tile is cropped to the union of what the lanes
 draw, so the lanes' disagreement (a limb in two places, a tear, a smear) shows at the same place in each column.
+The lanes and the blend are shown over the paper the evaluation judges them on (ops.evaluation.plate: the keys'
+bare paper), and with a ground truth each tile's caption gives its PSNR against it, over the whole frame.
 """
 from __future__ import annotations
 
@@ -21,6 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from ops.evaluation.metrics import psnr  # noqa: E402
+from ops.evaluation.plate import over, paper_plate  # noqa: E402
 from ops.shotio.image_io import composite_over_white, read_image, to_rgba, write_image  # noqa: E402
 from ops.shotio.load import ground_truth_files, load_shot  # noqa: E402
 from resources.registry import partition_of  # noqa: E402
@@ -35,9 +39,9 @@ def on_white(image: np.ndarray) -> np.ndarray:
     return composite_over_white(to_rgba(image))
 
 
-def crop_box(images: list[np.ndarray], margin: int = 6) -> tuple[int, int, int, int]:
-    """(y0, y1, x0, x1) of everything the (H, W, 3) 0-1 images draw (not white), a margin around, squared."""
-    ink = np.any([np.any(im < 0.97, axis=2) for im in images], axis=0)
+def crop_box(alphas: list[np.ndarray], margin: int = 6) -> tuple[int, int, int, int]:
+    """(y0, y1, x0, x1) of everything the (H, W) 0-1 coverages draw, a margin around, squared."""
+    ink = np.any([a > 0.03 for a in alphas], axis=0)
     ys, xs = np.nonzero(ink)
     h, w = ink.shape
     if not len(ys):
@@ -64,6 +68,14 @@ def tile(img: np.ndarray, box: tuple[int, int, int, int], caption: str) -> np.nd
     return out
 
 
+def lane_rows(frames: np.ndarray, alpha_index: np.ndarray, cols: list[int], plate: np.ndarray
+              ) -> list[tuple[str, list[np.ndarray]]]:
+    """Rows of (H, W, 3) 0-1 images from the image matrix's frames (T, A, H, W, 4): key0's lane (alpha 0), key1's
+    (alpha 1) and the path's blend (alpha_index (T,)) at the times cols, each over the (H, W, 3) paper plate."""
+    picks = [("key0 lane", lambda c: 0), ("key1 lane", lambda c: -1), ("blend", lambda c: alpha_index[c])]
+    return [(name, [over(frames[c, pick(c)][None], plate)[0] for c in cols]) for name, pick in picks]
+
+
 def lanes_figure(shot_dir: Path, home: Path, segment: int = 0, every: int = 1) -> np.ndarray:
     """(H, W, 3) uint8 figure of a stored run of shot_dir (its stages in home/storage): rows as the module says."""
     shot = load_shot(shot_dir)
@@ -80,18 +92,22 @@ def lanes_figure(shot_dir: Path, home: Path, segment: int = 0, every: int = 1) -
         files = {int(f.stem): f for f in ground_truth_files(shot.ground_truth)}
         truth = {c: on_white(read_image(files[first + c], "ground_truth")) for c in cols if first + c in files}
     alpha = paths.optimal.alpha_index
-    rows = [("key0 lane", [on_white(matrix.frames[c, 0]) for c in cols]),
-            ("key1 lane", [on_white(matrix.frames[c, -1]) for c in cols]),
-            ("blend", [on_white(matrix.frames[c, alpha[c]]) for c in cols])]
+    keys = shot.segment_keys(segment)
+    masks = [store.read(f"key{k}/masks", partition) for k in keys]
+    plate = paper_plate([to_rgba(read_image(shot.keyframes[k], "keyframes")) for k in keys],
+                        [m.coverage for m in masks], [m.paper for m in masks])
+    box = crop_box([matrix.frames[c, a, ..., 3] for c in cols for a in (0, -1, alpha[c])])  # not the truth's paper
+    rows = lane_rows(matrix.frames, alpha, cols, plate)
     if truth:
         blank = np.ones_like(rows[0][1][0])
         rows.append(("truth", [truth.get(c, blank) for c in cols]))
-    box = crop_box([im for _, ims in rows[:3] for im in ims])  # the truth's paper would widen it to the frame
     lines = []
     for name, ims in rows:
         tiles = []
         for c, im in zip(cols, ims):
             caption = f"t={matrix.times[c]:.2f}" + (f" a={matrix.alphas[alpha[c]]:.3f}" if name == "blend" else "")
+            if c in truth and name != "truth":
+                caption += f" {psnr(im, truth[c]):.1f}dB"
             tiles.append(tile(im, box, caption))
         label = np.full((TILE, LABEL_W, 3), 255, np.uint8)
         cv2.putText(label, name, (4, TILE // 2), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)

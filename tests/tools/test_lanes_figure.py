@@ -1,5 +1,6 @@
 """tools/lanes_figure.py: rows are key0's lane (alpha 0), key1's lane (alpha 1), the optimal path's blend and the
-truth; every tile shows the same crop, so a part drawn in two places by the lanes shows in two places."""
+truth; every tile shows the same crop, so a part drawn in two places by the lanes shows in two places; the lanes
+are shown over the evaluation's paper plate."""
 from __future__ import annotations
 
 import shutil
@@ -8,10 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from ops.shotio.load import load_shot
-from ops.types import BlendPath, BlendPaths, ImageMatrix
+from ops.types import BlendPath, BlendPaths, ImageMatrix, Masks
 from resources.registry import register_shot
 from resources.store import Store
-from tools.lanes_figure import LABEL_W, TILE, crop_box, lanes_figure
+from tools.lanes_figure import LABEL_W, TILE, crop_box, lane_rows, lanes_figure
 
 SAMPLE = Path(__file__).resolve().parents[2] / "data_samples" / "two_poses"
 
@@ -44,6 +45,10 @@ def test_rows_show_each_lane_the_blend_and_the_truth(tmp_path):
     store = Store(tmp_path / "home" / "storage")
     store.write("seg0/rife_matrix", key, matrix)
     store.write("seg0/optimal_path", key, BlendPaths(matrix.times, alphas, path, path))
+    for k in (0, 1):  # no character: the plate is the keys' own pixels
+        store.write(f"key{k}/masks", key, Masks(np.zeros((h, w), bool), [], [], "predicted", np.zeros((h, w), np.float32),
+                                               np.ones((h, w, 3), np.float32), np.ones((h, w, 3), np.float32),
+                                               np.zeros((h, w), bool), 0))
 
     fig = lanes_figure(shot_dir, tmp_path / "home")
     assert fig.shape == (4 * TILE, LABEL_W + n_t * TILE, 3)  # the sample has ground truth: four rows
@@ -59,8 +64,24 @@ def test_rows_show_each_lane_the_blend_and_the_truth(tmp_path):
 
 
 def test_crop_box_holds_everything_drawn_and_is_square():
-    img = np.ones((100, 200, 3), np.float32)
-    img[10:20, 30:80] = 0.0
-    y0, y1, x0, x1 = crop_box([img], margin=2)
+    alpha = np.zeros((100, 200), np.float32)
+    alpha[10:20, 30:80] = 1.0
+    y0, y1, x0, x1 = crop_box([alpha], margin=2)
     assert y0 <= 8 and y1 >= 22 and x0 <= 28 and x1 >= 82 and (y1 - y0) == (x1 - x0)
-    assert crop_box([np.ones((50, 60, 3), np.float32)]) == (0, 50, 0, 60)  # nothing drawn: the whole frame
+    assert crop_box([np.zeros((50, 60), np.float32)]) == (0, 50, 0, 60)  # nothing drawn: the whole frame
+
+
+def test_lanes_are_shown_over_the_paper_plate():
+    """Where a lane draws nothing the row shows the plate, where it draws opaquely its own colour, and a half-covered
+    pixel their mix: the tiles compare with the truth's paper, not with white."""
+    h, w = 40, 60
+    frames = np.zeros((3, 2, h, w, 4), np.float32)
+    frames[:, 0, 5:15, 5:15] = (1, 0, 0, 1)
+    frames[:, 1, 5:15, 5:15] = (0, 0, 1, 0.5)
+    plate = np.full((h, w, 3), (0.9, 0.85, 0.7), np.float32)  # a cream paper
+    rows = lane_rows(frames, np.array([0, 1, 1]), [0, 2], plate)
+    assert [name for name, _ in rows] == ["key0 lane", "key1 lane", "blend"]
+    key0, key1, blend = (ims for _, ims in rows)
+    assert np.allclose(key0[0][30, 40], plate[30, 40]) and np.allclose(key0[0][10, 10], (1, 0, 0))
+    assert np.allclose(key1[1][10, 10], 0.5 * np.array([0, 0, 1]) + 0.5 * plate[10, 10])
+    assert np.allclose(blend[0][10, 10], (1, 0, 0)) and np.allclose(blend[1], key1[1])  # the path's alpha per time
