@@ -31,6 +31,7 @@ import numpy as np
 from scipy import ndimage
 from skimage.graph import route_through_array
 
+from ops.geometry.polygon import project_to_segment
 from ops.geometry.snap import snap_into
 from ops.types import MIN_BONE_PX, Skeleton, bone_frames
 from ops.warning_subject import about
@@ -143,8 +144,8 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
             part = labels == comp
             row, col = np.unravel_index(int(np.argmax(np.where(part, dist, -1.0))), part.shape)
             at = np.array([col, row], np.float64)
-            near = [(*_distance_along(at, xy[i], xy[j]), b) for b, (i, j) in enumerate(skeleton.bones)]
-            d_at, u_at, b_at = min(near)
+            along = (project_to_segment(at, xy[i], xy[j]) for i, j in skeleton.bones)  # (t, distance) per bone
+            d_at, u_at, b_at = min((float(d), float(t), b) for b, (t, d) in enumerate(along))
             best = (0.0, b_at, u_at)
             i, j = skeleton.bones[b_at]
             if d_at > max(FAR_PART_PX, FAR_PART_SHARE * float(np.linalg.norm(xy[j] - xy[i]))):
@@ -167,14 +168,6 @@ def place_handles(pose: np.ndarray, skeleton: Skeleton, domain: list[np.ndarray]
     off = P - W @ xy
     offsets = np.stack([(off * along).sum(1), (off * across).sum(1)], axis=1)
     return Handles(P, W, offsets, frames, names, warnings)
-
-
-def _distance_along(point: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
-    """(distance, pixels, from a (2,) point to the segment a-b; the segment parameter t in [0, 1] nearest it)."""
-    d = b - a
-    L2 = float(d @ d)
-    t = 0.0 if L2 < 1e-12 else float(np.clip((point - a) @ d / L2, 0.0, 1.0))
-    return float(np.linalg.norm(point - (a + t * d))), t
 
 
 def drawn_path(safe: np.ndarray, dist: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray | None:

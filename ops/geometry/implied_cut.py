@@ -22,19 +22,13 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from ops.geometry.polygon import project_to_segment
 from ops.types import Skeleton
 
 PROBE_PX = 2.5  # the point read for a boundary vertex lies this far outside the region (its boundary is DP 2 px)
 WIDTH_MARGIN_PX = 1.0  # a point within the front body's half-width plus this of a front bone continues it (a probe
 #                        across the body's own side lies PROBE_PX beyond its half-width)
 MIN_RUN_PX = 6.0  # shorter runs of one label along the boundary join their neighbours
-
-
-def _segment_distance(P: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(k,) distance of points P (k, 2) to the segment a-b (2,), pixels."""
-    d = b - a
-    t = np.clip(((P - a) @ d) / max(float(d @ d), 1e-12), 0.0, 1.0)
-    return np.linalg.norm(P - (a + t[:, None] * d), axis=1)
 
 
 def outward_probes(boundary: np.ndarray, region: np.ndarray, step: float = PROBE_PX) -> np.ndarray:
@@ -81,7 +75,7 @@ def implied_labels(boundary: np.ndarray, region: np.ndarray, foreground: np.ndar
     near = np.full(n, np.inf)
     for b in chain:
         a, c = (np.asarray(pose[j, :2], np.float64) for j in skeleton.bones[b])
-        near = np.minimum(near, _segment_distance(probes, a, c))
+        near = np.minimum(near, project_to_segment(probes, a, c)[1])
     labels = np.where(near <= width + WIDTH_MARGIN_PX, 0, 1).astype(np.int8)
     paper = ~_inside(foreground, probes)
     return _smoothed(boundary, labels, paper)

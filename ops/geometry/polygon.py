@@ -1,4 +1,4 @@
-"""Closed polylines in the image plane: signed area, point inside, nearest point, the pixels inside.
+"""Closed polylines and segments in the image plane: signed area, point inside, nearest point, the pixels inside.
 
 Pure geometry with no mesh in it, so the masks (ops.segmentation.domain) use it without depending on the
 mesher (ops.geometry.mesh), and an edit to the mesher leaves them fresh.
@@ -23,6 +23,15 @@ def points_in_polygon(Q: np.ndarray, P: np.ndarray) -> np.ndarray:
     dy = np.where(b[:, 1] == a[:, 1], 1.0, b[:, 1] - a[:, 1])
     x_cross = a[None, :, 0] + (qy - a[None, :, 1]) * (b[None, :, 0] - a[None, :, 0]) / dy[None, :]
     return (straddle & (qx < x_cross)).sum(axis=1) % 2 == 1
+
+
+def project_to_segment(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest point on the segment a-b ((2,) each) for (..., 2) points: (param (...,) in [0, 1] from a to b,
+    distance (...,) pixels); a segment of no length is its point a."""
+    d = np.asarray(b, np.float64) - a
+    L2 = float(d @ d)
+    t = np.zeros(np.shape(points)[:-1]) if L2 < 1e-12 else np.clip(((points - a) @ d) / L2, 0.0, 1.0)
+    return t, np.linalg.norm(points - (a + t[..., None] * d), axis=-1)
 
 
 def project_to_polyline(Q: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

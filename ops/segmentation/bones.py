@@ -5,17 +5,13 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
+from ops.geometry.polygon import project_to_segment
 from ops.types import Skeleton
 
 
 def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(...,) float64 distance, pixels, from (..., 2) points to the segment a-b ((2,) each)."""
-    d = b - a
-    L2 = float(d @ d)
-    if L2 < 1e-12:
-        return np.linalg.norm(points - a, axis=-1)
-    t = np.clip(((points - a) @ d) / L2, 0.0, 1.0)
-    return np.linalg.norm(points - (a + t[..., None] * d), axis=-1)
+    return project_to_segment(points, a, b)[1]
 
 
 def _bone_ends(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:

@@ -101,14 +101,14 @@ def bone_touched(mask: np.ndarray, touch: np.ndarray) -> tuple[np.ndarray, list[
     return np.isin(labels, ids), []
 
 
-def strokes_near_bones(untouched: np.ndarray, near: np.ndarray, min_area: float) -> np.ndarray:
-    """(H, W) bool: the 8-connected components of the (H, W) bool ink no bone touches that lie within a body's
+def strokes_near_bones(untouched: np.ndarray, near: np.ndarray, min_area: float) -> tuple[np.ndarray, int]:
+    """((H, W) bool, their count): the 8-connected components of the (H, W) bool ink no bone touches that lie within a body's
     reach of a bone (NEAR_SHARE of their pixels in the (H, W) bool `near`) and are strokes, not specks or dots (at
     least min_area pixels, ELONGATION times longer than wide): the pieces of an outline drawn in separate strokes
     beside its limb's bone."""
     labels, n = ndimage.label(untouched, structure=np.ones((3, 3), bool))
     if n == 0:
-        return np.zeros_like(untouched)
+        return np.zeros_like(untouched), 0
     area = np.bincount(labels.ravel(), minlength=n + 1)
     inside = np.bincount(labels[near], minlength=n + 1)
     # a stroke is long for its width: its area is many times that of the widest disc it holds (a dot is not)
@@ -116,7 +116,7 @@ def strokes_near_bones(untouched: np.ndarray, near: np.ndarray, min_area: float)
     np.maximum.at(width, labels.ravel(), cv2.distanceTransform(untouched.astype(np.uint8), cv2.DIST_L2, 5).ravel())
     keep = (area >= min_area) & (inside >= NEAR_SHARE * area) & (area >= ELONGATION * 4.0 * width ** 2)
     keep[0] = False
-    return keep[labels]
+    return keep[labels], int(keep.sum())
 
 
 def fill_insides(ink: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -279,10 +279,9 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     # length from it however its inside was drawn (an outline in separate strokes leaves the radii at a stroke's width)
     limb = LIMB_SHARE * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1)
     outline = bone_capsules(shape, pose, skeleton, np.maximum(reach, limb))
-    strokes = strokes_near_bones((filled | broken) & ~silhouette, outline, STROKE_AREA * r * r)
-    if strokes.any():
+    strokes, kept = strokes_near_bones((filled | broken) & ~silhouette, outline, STROKE_AREA * r * r)
+    if kept:
         silhouette = silhouette | strokes
-        kept = ndimage.label(strokes, structure=np.ones((3, 3), bool))[1]
         warnings.append(f"kept {kept} stroke(s) that no bone touches but that lie within a body's reach "
                         "of one (an outline drawn in separate strokes); check the foreground preview")
     holes = find_holes(silhouette, sealed, touch, near, points, reach[owner], min_radius=r)
