@@ -37,16 +37,21 @@ def _sides(env: StageEnv, s: int) -> tuple[DeformedSequence, DeformedSequence]:
 class _CountedRife:
     """The RIFE network, reporting each batch of blends as a `progress` event of its stage: the longest stage
     tells a front end (the editor's rerun panel) how far it is. `bound` is the most blends it can take: the
-    alpha-1/2 cell of every time, then at most depth - 1 more cells of the path's bisection per time."""
+    alpha-1/2 cell of every time, and with bisected cells at most depth - 1 more of the path's per time."""
 
     def __init__(self, rife, partition: str, stage: str, bound: int):
         self._rife, self._partition, self._stage, self.bound, self.done = rife, partition, stage, bound, 0
         self._lock = threading.Lock()
 
     def midpoint_tensors(self, a0, a1, *args, **kwargs):
-        out = self._rife.midpoint_tensors(a0, a1, *args, **kwargs)
+        return self._counted(len(a0), self._rife.midpoint_tensors(a0, a1, *args, **kwargs))
+
+    def midpoint_flow_mask(self, a0, a1, *args, **kwargs):
+        return self._counted(len(a0), self._rife.midpoint_flow_mask(a0, a1, *args, **kwargs))
+
+    def _counted(self, pairs: int, out):
         with self._lock:  # the matrix may call from several threads (build_image_matrix): counts in order
-            self.done += len(a0)
+            self.done += pairs
             progress.emit(self._partition, self._stage, "progress", done=self.done, bound=self.bound)
         return out
 
@@ -72,12 +77,15 @@ def _matrix(env: StageEnv, s: int) -> StageResult:
     seq0, seq1 = _sides(env, s)
     st = env.settings
     _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(st.alpha_depth))
+    calls_per_row = 1 if st.matrix_cells == "scaled" else st.alpha_depth
     rife = _CountedRife(env.resource("rife").load(), env.partition, f"seg{s}/rife_matrix",
-                        len(seq0.times) * st.alpha_depth)
-    matrix = path_matrix(seq0, seq1, q, weight, rife, st.alpha_depth, st.epsilon, st.blend, env.resource("rife").batch)
+                        len(seq0.times) * calls_per_row)
+    matrix = path_matrix(seq0, seq1, q, weight, rife, st.alpha_depth, st.epsilon, st.blend, env.resource("rife").batch,
+                         st.matrix_cells)
     mid = matrix.frames[:, len(matrix.alphas) // 2]
-    meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": int(matrix.computed[:, 1:-1].sum()),
-            "cells_computed": int(matrix.computed.sum()), "device": env.resource("rife").device}
+    meta = {"T": len(matrix.times), "A": len(matrix.alphas), "inferences": rife.done,
+            "cells_computed": int(matrix.computed.sum()), "cells": st.matrix_cells,
+            "device": env.resource("rife").device}
     return StageResult(matrix, meta, preview.frame_strip(mid))
 
 

@@ -86,7 +86,7 @@ def _single_layer(env: StageEnv) -> StageResult:
         for seg in range(shot.n_segments):
             a, b = shot.segment_keys(seg)
             matrix, paths = blend_sequences(lane(seg, a, b, False), lane(seg, b, a, True), rife, s.alpha_depth,
-                                            s.epsilon)
+                                            s.epsilon, s.matrix_cells)
             parts.append(select_frames(matrix.frames, paths.optimal.alpha_index))
             alpha_parts.append(matrix.alphas[paths.optimal.alpha_index])
             cost += float(paths.optimal.cost)

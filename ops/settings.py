@@ -31,7 +31,11 @@ class Settings:
         "where only the covered part does (ops/geometry/implied_cut.py); the cut search keeps it where it "
         "deforms with less energy than the region's two uniform cuts."))
     epsilon: float = field(default=0.02, metadata=_doc("Path may step back in alpha by less than this (§5.2)."))
-    alpha_depth: int = field(default=3, metadata=_doc("Recursive RIFE bisection depth: alpha grid of 2**depth + 1 values."))
+    alpha_depth: int = field(default=3, metadata=_doc("Depth of the image matrix's dyadic alpha grid: 2**depth + 1 values (§5.2)."))
+    matrix_cells: str = field(default="scaled", metadata=_doc(
+        "How the image matrix's cells off alpha 1/2 are made (§5.2): 'scaled' (default) from each row's one RIFE "
+        "call at alpha 1/2, its flows scaled to alpha; 'bisection' by recursive RIFE midpoints, as the paper (up "
+        "to three calls a cell; ops/blending/image_matrix.py)."))
     supersample: int = field(default=2, metadata=_doc("Renderer supersampling factor per axis (anti-aliasing)."))
     template_mode: str = field(default="optimized",
                                metadata=_doc("'optimized' (2.5D template, §4.4) or 'single-layer' (ablation)."))

@@ -37,13 +37,15 @@ def path_cells(q: np.ndarray, Q: np.ndarray, alphas: np.ndarray, times: np.ndarr
 
 
 def path_matrix(seq0: DeformedSequence, seq1: DeformedSequence, q: np.ndarray, weight: np.ndarray, rife: Rife,
-                depth: int, epsilon: float, blend: str = "optimal", batch: int = 1) -> ImageMatrix:
-    """The image matrix of two deformed sequences with only the cells of `blend`'s path (and their bisection's
-    parents) blended: q (T, A) and the coverage weight (T, H, W) of Q (ops.blending.quality.quality_inputs)
-    known, Q from the alpha-1/2 flows once they are."""
+                depth: int, epsilon: float, blend: str = "optimal", batch: int = 1,
+                cells: str = "scaled") -> ImageMatrix:
+    """The image matrix of two deformed sequences with only the cells of `blend`'s path (and what they need:
+    alpha 1/2, or their bisection's parents, by `cells`) blended: q (T, A) and the coverage weight (T, H, W) of Q
+    (ops.blending.quality.quality_inputs) known, Q from the alpha-1/2 flows once they are."""
     alphas = alpha_grid(depth)
 
     def wanted(flows: np.ndarray) -> np.ndarray:
         return path_cells(q, interpolation_quality(flows, weight), alphas, seq0.times, epsilon, blend)
 
-    return build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=depth, batch=batch, wanted=wanted)
+    return build_image_matrix(seq0.images, seq1.images, seq0.times, rife, depth=depth, batch=batch, wanted=wanted,
+                              cells=cells)

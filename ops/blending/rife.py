@@ -41,7 +41,7 @@ from ops.blending.rife_files import (  # noqa: F401  (WEIGHTS_*, default_weights
     default_weights_path,
     onnx_file,
 )
-from ops.blending.rife_onnx import OnnxRife
+from ops.blending.rife_onnx import OnnxRife, scaled_flow_mask
 from ops.errors import ShotError
 
 SCALES = (4.0, 2.0, 1.0)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
@@ -228,7 +228,6 @@ class Rife:
         # an (N, H, W, C) array viewed as (N, C, H, W) already has the channels-last layout
         return torch.from_numpy(img).permute(0, 3, 1, 2).to(self.device, torch.float32)
 
-    @torch.inference_mode()
     def midpoint_tensors(self, a0: torch.Tensor, a1: torch.Tensor, crop: bool = True) -> tuple[torch.Tensor, torch.Tensor]:
         """(N, 4, H, W) straight RGBA on the device -> mid (N, 4, H, W) in [0, 1], flow (N, 4, H, W) pixels, on the device.
 
@@ -238,19 +237,28 @@ class Rife:
         pairs (ops/blending/crop.py), grown until no ink of the midpoint reaches a
         cut edge; outside it the midpoint is transparent paper and the flow zero.
         """
+        mid, flow, _ = self.midpoint_flow_mask(a0, a1, crop)
+        return mid, flow
+
+    @torch.inference_mode()
+    def midpoint_flow_mask(self, a0: torch.Tensor, a1: torch.Tensor,
+                           crop: bool = True) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """midpoint_tensors with the network's fusion mask too: (mid, flow, mask (N, 1, H, W), the weight of a0;
+        1/2 where the network did not look: identical pairs, outside the crop)."""
         mid, flow = a0.clone(), torch.zeros_like(a0)
+        mask = torch.full((len(a0), 1) + tuple(a0.shape[2:]), 0.5, dtype=a0.dtype, device=a0.device)
         moving = torch.nonzero((a0 != a1).flatten(1).any(1)).flatten()
         if len(moving) == 0:
-            return mid, flow
+            return mid, flow, mask
         m0, m1 = a0[moving], a1[moving]
         shape = tuple(a0.shape[2:])
         box = coverage_box(torch.cat((m0[:, 3], m1[:, 3]))) if crop else Box(0, shape[0], 0, shape[1])
         if box is None:  # no ink in either image: the midpoint of two blank pages
             mid[moving] = _PAPER.to(mid)
-            return mid, flow
+            return mid, flow, mask
         while True:
             ys, xs = box.slices
-            m, f = self._net_midpoint(m0[..., ys, xs], m1[..., ys, xs])
+            m, f, k = self._net_midpoint(m0[..., ys, xs], m1[..., ys, xs])
             if box.area == shape[0] * shape[1] or not cuts_ink(m[:, 3], box, shape):
                 break
             box = grow(box, shape)
@@ -258,16 +266,32 @@ class Rife:
         flow[moving] = 0.0
         mid[moving, :, ys, xs] = m
         flow[moving, :, ys, xs] = f
-        return mid, flow
+        mask[moving, :, ys, xs] = k
+        return mid, flow, mask
 
-    def _net_midpoint(self, a0: torch.Tensor, a1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """(N, 4, h, w) straight RGBA pair, every pair moving -> mid (N, 4, h, w) in [0, 1], flow (N, 4, h, w) pixels."""
+    def _net_midpoint(self, a0: torch.Tensor, a1: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(N, 4, h, w) straight RGBA pair, every pair moving -> mid (N, 4, h, w) in [0, 1], flow (N, 4, h, w)
+        pixels, mask (N, 1, h, w)."""
         h, w = a0.shape[2:]
         p0, p1 = pad_to_multiple(self._tensor(a0)), pad_to_multiple(self._tensor(a1))
         # flow is estimated on the drawing as seen on paper: ink composited over white
         flow, mask = self._flow_mask(_over_white(p0), _over_white(p1))
         mid = _blend_rgba(p0, p1, flow, mask)
-        return mid[..., :h, :w].float().clamp_(0.0, 1.0), flow[..., :h, :w].float()
+        crop = (..., slice(0, h), slice(0, w))
+        return mid[crop].float().clamp_(0.0, 1.0), flow[crop].float(), mask[crop].float()
+
+    @staticmethod
+    @torch.inference_mode()
+    def blend_at(a0: torch.Tensor, a1: torch.Tensor, flow: torch.Tensor, mask: torch.Tensor,
+                 alpha: float) -> torch.Tensor:
+        """The frame at `alpha` of (N, 4, H, W) straight RGBA pairs from their midpoint's flow (N, 4, H, W) and
+        mask (N, 1, H, W) (midpoint_flow_mask), the flows scaled linearly -> (N, 4, H, W) in [0, 1] on their
+        device; alpha 1/2 gives the midpoint (ops/blending/image_matrix.py, scaled cells)."""
+        f, m = scaled_flow_mask(flow, mask, alpha)
+        out = _blend_rgba(a0, a1, f, m).clamp_(0.0, 1.0)
+        same = ~(a0 != a1).flatten(1).any(1)  # an identical pair is its own frame at every alpha
+        out[same] = a0[same]
+        return out
 
 
 # transparent paper: the colour a fully transparent midpoint gets (_blend_rgba)

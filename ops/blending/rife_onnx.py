@@ -91,6 +91,19 @@ def blend_rgba(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarra
     return np.concatenate((rgb, alpha), 1).astype(np.float32, copy=False)
 
 
+def scaled_flow_mask(flow, mask, alpha: float):
+    """The midpoint's flows (N, 4, H, W) and fusion mask (N, 1, H, W) moved to `alpha`: the flow to frame 0
+    scaled by 2 alpha, to frame 1 by 2 (1 - alpha), as for motion along straight lines at constant speed, and
+    the mask's odds weighted by (1 - alpha) / alpha (frame 0's share falls from 1 to 0 as alpha goes 0 -> 1).
+    NumPy arrays or torch tensors."""
+    a = float(alpha)
+    f = flow * 1.0  # a copy of either array type
+    f[:, :2] *= 2.0 * a
+    f[:, 2:4] *= 2.0 * (1.0 - a)
+    w0 = (1.0 - a) * mask
+    return f, w0 / (w0 + a * (1.0 - mask)).clip(1e-6)
+
+
 def sigmoid(x: np.ndarray) -> np.ndarray:
     return (1.0 / (1.0 + np.exp(-x))).astype(np.float32, copy=False)
 
@@ -196,35 +209,67 @@ class OnnxRife:
         drifts by up to ~0.2 px). With `crop`, the network sees only the box around the ink of the moving pairs
         (ops/blending/crop.py), grown until no ink of the midpoint reaches a cut edge; outside it the midpoint
         is transparent paper and the flow zero."""
+        mid, flow, _ = self.midpoint_flow_mask(a0, a1, crop)
+        return mid, flow
+
+    def midpoint_flow_mask(self, a0: np.ndarray, a1: np.ndarray,
+                           crop: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """midpoint_tensors with the network's fusion mask too: (mid, flow, mask (N, 1, H, W), the weight of a0;
+        1/2 where the network did not look: identical pairs, outside the crop)."""
         mid, flow = np.array(a0, np.float32), np.zeros(a0.shape, np.float32)
+        mask = np.full((len(a0), 1) + a0.shape[2:], 0.5, np.float32)
         moving = np.nonzero((a0 != a1).reshape(len(a0), -1).any(1))[0]
         if len(moving) == 0:
-            return mid, flow
+            return mid, flow, mask
         m0, m1 = a0[moving], a1[moving]
         shape = tuple(a0.shape[2:])
         box = coverage_box(np.concatenate((m0[:, 3], m1[:, 3]))) if crop else Box(0, shape[0], 0, shape[1])
         if box is None:  # no ink in either image: the midpoint of two blank pages
             mid[moving] = PAPER
-            return mid, flow
+            return mid, flow, mask
         while True:
             ys, xs = box.slices
-            m, f = self._net_midpoint(m0[..., ys, xs], m1[..., ys, xs])
+            m, f, k = self._net_midpoint(m0[..., ys, xs], m1[..., ys, xs])
             if box.area == shape[0] * shape[1] or not cuts_ink(m[:, 3], box, shape):
                 break
             box = grow(box, shape)
         mid[moving] = PAPER
         mid[moving, :, ys, xs] = m
         flow[moving, :, ys, xs] = f
-        return mid, flow
+        mask[moving, :, ys, xs] = k
+        return mid, flow, mask
 
-    def _net_midpoint(self, a0: np.ndarray, a1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(N, 4, h, w) straight RGBA pair, every pair moving -> mid (N, 4, h, w) in [0, 1], flow (N, 4, h, w)."""
+    def _net_midpoint(self, a0: np.ndarray, a1: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(N, 4, h, w) straight RGBA pair, every pair moving -> mid (N, 4, h, w) in [0, 1], flow (N, 4, h, w),
+        mask (N, 1, h, w)."""
         h, w = a0.shape[2:]
         p0, p1 = pad_to_multiple(np.asarray(a0, np.float32)), pad_to_multiple(np.asarray(a1, np.float32))
         # flow is estimated on the drawing as seen on paper: ink composited over white
         flow, logits = self._run(over_white(p0), over_white(p1))
-        mid = blend_rgba(p0, p1, flow, sigmoid(logits))
-        return np.clip(mid[..., :h, :w], 0.0, 1.0), flow[..., :h, :w]
+        mask = sigmoid(logits)
+        mid = blend_rgba(p0, p1, flow, mask)
+        return np.clip(mid[..., :h, :w], 0.0, 1.0), flow[..., :h, :w], mask[..., :h, :w]
+
+    @staticmethod
+    def blend_at(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarray, alpha: float) -> np.ndarray:
+        """The frame at `alpha` of (N, 4, H, W) straight RGBA pairs from their midpoint's flow (N, 4, H, W) and
+        mask (N, 1, H, W) (midpoint_flow_mask), the flows scaled linearly -> (N, 4, H, W) in [0, 1]; alpha 1/2
+        gives the midpoint, 0 and 1 the pair's own images (ops/blending/image_matrix.py, scaled cells)."""
+        a0, a1 = np.asarray(a0, np.float32), np.asarray(a1, np.float32)
+        out = np.broadcast_to(PAPER, a0.shape).copy()
+        same = ~(a0 != a1).reshape(len(a0), -1).any(1)  # an identical pair is its own frame at every alpha
+        out[same] = a0[same]
+        a0, a1, flow, mask, out_moving = a0[~same], a1[~same], flow[~same], mask[~same], out[~same]
+        if len(a0) == 0:
+            return out
+        # outside the box around both images' coverage and the flows every sample is transparent: paper
+        box = coverage_box(np.concatenate((a0[:, 3], a1[:, 3], (flow != 0).any(1))), margin=2, grid=1)
+        if box is not None:
+            ys, xs = box.slices
+            f, m = scaled_flow_mask(flow[..., ys, xs], mask[..., ys, xs], alpha)
+            out_moving[..., ys, xs] = np.clip(blend_rgba(a0[..., ys, xs], a1[..., ys, xs], f, m), 0.0, 1.0)
+        out[~same] = out_moving
+        return out
 
 
 def open_export(weights_path: str | Path | None, cache_dir: str | Path) -> OnnxRife | None:

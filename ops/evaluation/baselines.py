@@ -50,10 +50,10 @@ def cross_dissolve(key0: np.ndarray, key1: np.ndarray, times: np.ndarray) -> np.
 
 
 def blend_sequences(seq0: DeformedSequence, seq1: DeformedSequence, rife, depth: int = 3,
-                    epsilon: float = 0.02) -> tuple[ImageMatrix, BlendPaths]:
+                    epsilon: float = 0.02, cells: str = "scaled") -> tuple[ImageMatrix, BlendPaths]:
     """§5.2 in one call (for the ablation): matrix (the optimal path's cells blended), q and Q, and both paths."""
     _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(depth))
-    matrix = path_matrix(seq0, seq1, q, weight, rife, depth, epsilon)
+    matrix = path_matrix(seq0, seq1, q, weight, rife, depth, epsilon, cells=cells)
     Q = interpolation_quality(matrix.flows, weight)
     paths = BlendPaths(matrix.times, matrix.alphas, optimal_path(q, Q, matrix.alphas, epsilon=epsilon),
                        diagonal_path(q, Q, matrix.alphas, matrix.times))

@@ -38,3 +38,18 @@ def test_progress_counts_every_blend_up_to_the_bound(deepest):
     if deepest:
         assert blends == T * depth  # the bound is reached: it is the least upper bound
     assert rife.device == fake.device  # everything else is the network's own
+
+
+def test_scaled_cells_count_one_call_a_time():
+    """With scaled cells the network runs at alpha 1/2 only: the progress counts one blend per time, up to the
+    bound T the stage announces for them."""
+    T, depth = 5, 3
+    events = []
+    fake = AveragingFake()
+    rife = _CountedRife(fake, "shot", "seg0/rife_matrix", T)
+    pick = np.zeros((T, len(alpha_grid(depth))), bool)
+    pick[:, 1] = True  # every time at the first eighth: three calls each by bisection
+    with progress.listen(events.append):
+        build_image_matrix(random_frames(T), random_frames(T, seed=2), np.linspace(0, 1, T), rife, depth=depth,
+                           wanted=lambda flows: pick, cells="scaled")
+    assert [e["done"] for e in events][-1] == rife.done == sum(fake.calls) == T

@@ -31,6 +31,11 @@ class AveragingFake(OnnxRife):
         self.calls.append(len(img0))
         return (img0 + img1) / 2, np.full(img0.shape, float(len(img0)), np.float32)
 
+    def midpoint_flow_mask(self, img0, img1):
+        """midpoint_tensors with an even mask (the scaled cells then blend the frames with the flows scaled)."""
+        mid, flow = self.midpoint_tensors(img0, img1)
+        return mid, flow, np.full((len(img0), 1) + img0.shape[2:], 0.5, np.float32)
+
 
 def random_frames(t, h=16, w=12, seed=0):
     """(t, h, w, 4) float32 uniform random RGBA."""
@@ -252,3 +257,113 @@ def test_a_failing_row_fails_the_matrix():
     f0, f1 = random_frames(6), random_frames(6, seed=1)
     with pytest.raises(RuntimeError, match="network failed"):
         build_image_matrix(f0, f1, np.linspace(0, 1, 6), Failing(), depth=2)
+
+
+class CountingOnnx(OnnxRife):
+    """The real network on ONNX Runtime, counting the pairs it is called on."""
+
+    def __init__(self, onnx_path, weights_path):
+        super().__init__(onnx_path, weights_path)
+        self.pairs = 0
+
+    def _run(self, rgb0, rgb1):
+        with self._lock:
+            self.pairs += len(rgb0)
+        return super()._run(rgb0, rgb1)
+
+
+@pytest.fixture(scope="module")
+def onnx(tmp_path_factory):
+    rife = load_rife(runtime="onnxruntime", cache_dir=tmp_path_factory.mktemp("onnx"))
+    if not isinstance(rife, OnnxRife):
+        pytest.skip("onnxruntime is not installed")
+    return CountingOnnx(rife.onnx_path, rife.weights_path)
+
+
+def test_scaled_cells_cost_one_call_a_row_and_move_the_disc_linearly(onnx):
+    """Scaled cells: the network runs once per moving row, at alpha 1/2, whose cells and flows are the bisected
+    matrix's; the ends are the frames; every other cell shows the disc a share alpha of the way (as bisection
+    does, to 1.5 px), and the row of identical frames is that frame in every cell."""
+    f0, f1 = disc_frames([36, 40]), disc_frames([52, 40])
+    times = np.array([0.0, 1.0])
+    onnx.pairs = 0
+    m = build_image_matrix(f0, f1, times, onnx, depth=3, cells="scaled")
+    assert onnx.pairs == 1 and m.computed.all() and m.masks.shape == (2, 64, 96)
+    bisected = build_image_matrix(f0, f1, times, onnx, depth=3)
+    np.testing.assert_allclose(m.frames[:, 4], bisected.frames[:, 4], atol=1e-5)
+    np.testing.assert_allclose(m.flows, bisected.flows, atol=1e-4)
+    assert bisected.masks is None
+    np.testing.assert_array_equal(m.frames[:, 0], f0)
+    np.testing.assert_array_equal(m.frames[:, -1], f1)
+    xx = np.arange(96)[None, :]
+    alpha = m.frames[0, ..., 3]
+    cx = (alpha * xx).sum(axis=(1, 2)) / alpha.sum(axis=(1, 2))
+    assert np.all(np.diff(cx) > 0)
+    np.testing.assert_allclose(cx, 36 + 16 * m.alphas, atol=1.5)
+    np.testing.assert_allclose(m.frames[1], np.broadcast_to(f0[1], m.frames[1].shape), atol=1e-5)
+    # the scaled cells are near bisection's (the cells at eighths and quarters of a 16 px move)
+    assert np.abs(m.frames[0] - bisected.frames[0]).mean() < 0.01
+
+
+@pytest.mark.parametrize("runtime", ["onnxruntime", "torch"])
+def test_blend_at_one_half_is_the_midpoint_and_its_ends_are_the_frames(runtime, tmp_path):
+    """blend_at with the midpoint's own flow and mask: alpha 1/2 gives the midpoint, 0 and 1 the two frames."""
+    rife = load_rife(runtime=runtime, cache_dir=tmp_path)
+    f0, f1 = disc_frames([30, 44]), disc_frames([46, 44])
+    f1[1, ..., 3] *= 0.5  # a pair that moves only in coverage
+    a0, a1 = rife.rgba_tensor(f0), rife.rgba_tensor(f1)
+    mid, flow, mask = rife.midpoint_flow_mask(a0, a1)
+    host = rife.to_host
+    np.testing.assert_allclose(host(rife.blend_at(a0, a1, flow, mask, 0.5)), host(mid), atol=1e-5)
+    def premultiplied(img):  # a transparent pixel's colour is nothing to compare
+        return np.concatenate((img[..., :3] * img[..., 3:], img[..., 3:]), -1)
+
+    np.testing.assert_allclose(premultiplied(host(rife.blend_at(a0, a1, flow, mask, 0.0))), premultiplied(f0), atol=1e-5)
+    np.testing.assert_allclose(premultiplied(host(rife.blend_at(a0, a1, flow, mask, 1.0))), premultiplied(f1), atol=1e-5)
+    m2, f2 = rife.midpoint_tensors(a0, a1)
+    np.testing.assert_array_equal(host(m2), host(mid))
+    np.testing.assert_array_equal(host(f2), host(flow))
+
+
+def test_completing_a_scaled_matrix_calls_no_network(onnx):
+    """A scaled matrix built for one path and completed along another: no network call, the new cells as the
+    full scaled matrix's, the path's own and the flows and masks unchanged; only alpha 1/2 and the wanted cells
+    are computed."""
+    f0 = disc_frames([30, 36, 40, 44, 50])
+    f1 = disc_frames([56, 52, 48, 44, 40])
+    times = np.linspace(0, 1, 5)
+    full = build_image_matrix(f0, f1, times, onnx, depth=3, cells="scaled")
+    first, diagonal = np.array([0, 1, 3, 8, 8]), np.array([0, 2, 4, 6, 8])
+    pick = np.zeros((5, 9), bool)
+    pick[np.arange(5), first] = True
+    onnx.pairs = 0
+    m = build_image_matrix(f0, f1, times, onnx, depth=3, cells="scaled", wanted=lambda flows: pick)
+    assert onnx.pairs == 4  # the rows that move (row 3's frames are the same disc)
+    want = pick.copy()
+    want[:, [0, 4, 8]] = True
+    np.testing.assert_array_equal(m.computed, want)
+    onnx.pairs = 0
+    done = complete_cells(m, f0, f1, onnx, diagonal)
+    assert onnx.pairs == 0
+    want[np.arange(5), diagonal] = True
+    np.testing.assert_array_equal(done.computed, want)
+    np.testing.assert_allclose(done.frames[want], full.frames[want], atol=1e-5)
+    np.testing.assert_array_equal(done.masks, m.masks)
+    np.testing.assert_array_equal(done.flows, m.flows)
+
+
+def test_scaled_cells_on_torch_equal_onnx(onnx, rife):
+    """The torch runtime's scaled matrix is ONNX Runtime's, to the runtimes' float noise."""
+    f0 = disc_frames([30, 36, 40])
+    f1 = disc_frames([56, 52, 48])
+    times = np.linspace(0, 1, 3)
+    a = build_image_matrix(f0, f1, times, onnx, depth=3, cells="scaled")
+    b = build_image_matrix(f0, f1, times, rife, depth=3, cells="scaled")
+    np.testing.assert_allclose(a.frames, b.frames, atol=2e-3)
+    np.testing.assert_allclose(a.masks, b.masks, atol=1e-3)
+
+
+def test_unknown_cells_are_refused():
+    f = random_frames(2)
+    with pytest.raises(ValueError, match="cells"):
+        build_image_matrix(f, f, np.zeros(2), AveragingFake(), cells="linear")
