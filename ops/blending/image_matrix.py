@@ -62,9 +62,10 @@ def _check_inputs(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray) -
 
 
 def _check_out(out: np.ndarray | None, shape: tuple[int, ...], name: str) -> np.ndarray:
-    """Allocate float32 `shape` if `out` is None, else check it has that shape and dtype."""
+    """Allocate zeroed float32 `shape` if `out` is None, else check it has that shape and dtype."""
     if out is None:
-        return np.empty(shape, dtype=np.float32)
+        # zeros, not empty: the pages of the cells never computed are never touched (most of a path's matrix)
+        return np.zeros(shape, dtype=np.float32)
     if out.shape != shape or out.dtype != np.float32:
         raise ValueError(f"{name} must be float32 {shape}, got {out.dtype} {out.shape}")
     return out
@@ -152,6 +153,7 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     alphas = alpha_grid(depth)
     t_count, h, w, _ = frames0.shape
     n_a = len(alphas)
+    given = out is not None
     out = _check_out(out, (t_count, n_a, h, w, 4), "out")
     flows_out = _check_out(flows_out, (t_count, h, w, 4), "flows_out")
     masks_out = _check_out(masks_out, (t_count, h, w), "masks_out") if scaled else None
@@ -218,7 +220,8 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     finally:
         if pool is not None:
             pool.shutdown()
-    out[~computed] = 0.0  # not computed: transparent black, and marked so
+    if given:  # not computed: transparent black, and marked so (a fresh array is zero already)
+        out[~computed] = 0.0
     return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out,
                        computed=computed, masks=masks_out)
 
