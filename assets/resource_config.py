@@ -7,6 +7,7 @@ changed setting does. The CLI's runs configure the resources from the environmen
   INBETWEEN_DEVICE           rife.device        cpu | cuda
   INBETWEEN_RIFE_WEIGHTS     rife.weights_path  another RIFE HDv3 flownet.pkl
   INBETWEEN_RIFE_BATCH       rife.batch         image pairs per network call (an integer >= 1)
+  INBETWEEN_RIFE_RUNTIME     rife.runtime       onnxruntime | torch (what runs the network on the CPU)
   INBETWEEN_INPAINTER        inpainter.method   see resources/inpainter.py
   INBETWEEN_INPAINT_RADIUS   inpainter.radius   pixels (an integer >= 1)
 
@@ -23,9 +24,11 @@ from ops.errors import ShotError
 # resource key -> field -> (environment variable, type)
 ENVIRONMENT: dict[str, dict[str, tuple[str, type]]] = {
     "rife": {"device": ("INBETWEEN_DEVICE", str), "weights_path": ("INBETWEEN_RIFE_WEIGHTS", str),
-             "batch": ("INBETWEEN_RIFE_BATCH", int)},
+             "batch": ("INBETWEEN_RIFE_BATCH", int), "runtime": ("INBETWEEN_RIFE_RUNTIME", str)},
     "inpainter": {"method": ("INBETWEEN_INPAINTER", str), "radius": ("INBETWEEN_INPAINT_RADIUS", int)},
 }
+
+CHOICES: dict[tuple[str, str], tuple[str, ...]] = {("rife", "runtime"): ("onnxruntime", "torch")}  # closed sets
 
 
 def resource_overrides(env: Mapping[str, str] | None = None) -> dict[str, dict]:
@@ -47,6 +50,10 @@ def resource_overrides(env: Mapping[str, str] | None = None) -> dict[str, dict]:
                                     f"set {var} to a whole number, or unset it")
                 out.setdefault(key, {})[field] = value
             else:
+                choices = CHOICES.get((key, field))
+                if choices and text not in choices:
+                    raise ShotError("environment", var, f"{text!r} is not one of {', '.join(choices)}",
+                                    f"set {var} to one of them, or unset it")
                 out.setdefault(key, {})[field] = text
     return out
 

@@ -3,7 +3,9 @@ image-matrix build, each runtime measured right after the other on the same inpu
 frames are (PSNR of one runtime's midpoint against the other's, dB; inf = identical).
 
 Run: .venv/bin/python benchmarks/bench_rife.py [--threads 2] [--repeats 5] [--cache DIR]
-Target: the matrix of a 9-frame 384 x 384 shot at depth 3 (63 network calls) in <= 12 s on 2 cores.
+Target: the matrix of a 9-frame 384 x 384 shot at depth 3 (63 network calls) in <= 12 s on 2 cores; the same
+matrix with scaled cells (Settings.matrix_cells, the pipeline's: 9 calls, the other 54 cells from their flows)
+is printed beside it.
 Wall time on a shared machine is noisy; CPU seconds are printed beside it. The ONNX export is cached in
 --cache (default: a temporary directory, so the first load pays the export, printed separately).
 """
@@ -44,11 +46,12 @@ def bench_midpoint(rife: Rife, size: int, repeats: int) -> tuple[float, float, f
     return float(np.median(runs[:, 0])), float(runs[:, 0].min()), float(np.median(runs[:, 1]))
 
 
-def bench_matrix(rife: Rife, frames: int, size: int, depth: int, batch: int) -> tuple[float, float]:
-    """(wall, CPU) seconds of build_image_matrix for a frames x size x size shot."""
+def bench_matrix(rife: Rife, frames: int, size: int, depth: int, batch: int,
+                 cells: str = "bisection") -> tuple[float, float]:
+    """(wall, CPU) seconds of build_image_matrix, every cell, for a frames x size x size shot."""
     f0, f1 = smooth_frames(frames, size, 3), smooth_frames(frames, size, 4)
     times = np.linspace(0.0, 1.0, frames)
-    return timed(lambda: build_image_matrix(f0, f1, times, rife, depth=depth, batch=batch))
+    return timed(lambda: build_image_matrix(f0, f1, times, rife, depth=depth, batch=batch, cells=cells))
 
 
 def psnr(a: np.ndarray, b: np.ndarray) -> float:
@@ -87,6 +90,9 @@ def main() -> None:
                 wall, cpu = bench_matrix(rife, 9, 384, 3, batch)
                 print(f"image matrix 9 frames 384x384 depth 3 batch {batch} {runtime:12s}: {wall:.2f} s wall, "
                       f"{cpu:.2f} s CPU (63 midpoints, {wall / 63:.3f} s each; target <= 12 s)")
+                wall, cpu = bench_matrix(rife, 9, 384, 3, batch, cells="scaled")
+                print(f"  the same with scaled cells (the pipeline's): {wall:.2f} s wall, {cpu:.2f} s CPU "
+                      f"(9 midpoints, 54 cells from their flows)")
 
 
 if __name__ == "__main__":

@@ -118,7 +118,8 @@ def test_a_resource_change_makes_exactly_its_users_stale(home, small_shot, tmp_p
              "inpainter": {"seg0/key0/textured_template", "seg0/key1/textured_template"}}
     changes = [("INBETWEEN_RIFE_BATCH", "4", "rife", "batch"), ("INBETWEEN_RIFE_WEIGHTS", "/elsewhere.pkl", "rife",
                                                                   "weights_path"),
-               ("INBETWEEN_DEVICE", "cuda", "rife", "device"), ("INBETWEEN_INPAINTER", "ns", "inpainter", "method"),
+               ("INBETWEEN_DEVICE", "cuda", "rife", "device"), ("INBETWEEN_RIFE_RUNTIME", "torch", "rife", "runtime"),
+               ("INBETWEEN_INPAINTER", "ns", "inpainter", "method"),
                ("INBETWEEN_INPAINT_RADIUS", "9", "inpainter", "radius")]
     for var, value, key, field in changes:
         monkeypatch.setenv(var, value)
