@@ -290,8 +290,10 @@ def print_scaling(src: Path, tmp: Path, sizes: list[int], frame_counts: list[int
         out = tmp / "scaling-out" / f"{size}-{frames}"
         r = cli(["run", str(shot), "--out", str(out)], tmp / "scaling-home" / f"{size}-{frames}")
         st = json.loads((out / "report.json").read_text())["stages"]
-        lanes = sum(v["seconds"] for k, v in st.items() if k.startswith("key"))
-        print(f"{label:28s} | {r['wall']:7.1f} {r['cpu']:6.1f} {st['rife_matrix']['seconds']:7.1f} {lanes:7.1f} | "
+        # the keys' stages and each segment's side stages (seg0/key1/deformed_frames); the matrix of every segment
+        lanes = sum(v["seconds"] for k, v in st.items() if any(part.startswith("key") for part in k.split("/")))
+        rife = sum(v["seconds"] for k, v in st.items() if k.endswith("rife_matrix"))
+        print(f"{label:28s} | {r['wall']:7.1f} {r['cpu']:6.1f} {rife:7.1f} {lanes:7.1f} | "
               f"{r['rss_max'] / 2**20:6.0f}", flush=True)
 
 
