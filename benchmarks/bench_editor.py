@@ -143,7 +143,7 @@ def save_to_frames(url: str, shot_dir: Path, home: Path, move: float) -> float:
           f"(PUT answered in {t_put * 1e3:.0f} ms; rerun {status['finished'] - status['started']:.1f} s; "
           f"CPU of the rerun process >= {cpu or 0:.1f} s{' (its warm-up included)' if standby else ''}; "
           f"load average {os.getloadavg()[0]:.1f} at the end)")
-    rife = [s for s in said if s.startswith("rife_matrix")]
+    rife = [s for s in said if s.split(" ")[0].endswith("rife_matrix")]  # seg0/rife_matrix 5/9
     if rife:
         print(f"  while rife_matrix ran the panel named it with {len(rife)} different progress states: "
               f"{rife[0]!r} first, {rife[-1]!r} last")
