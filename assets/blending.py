@@ -9,7 +9,7 @@ import numpy as np
 
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
-from ops.blending.image_matrix import alpha_grid
+from ops.blending.image_matrix import alpha_grid, network_calls_bound
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import (
@@ -36,8 +36,8 @@ def _sides(env: StageEnv, s: int) -> tuple[DeformedSequence, DeformedSequence]:
 
 class _CountedRife:
     """The RIFE network, reporting each batch of blends as a `progress` event of its stage: the longest stage
-    tells a front end (the editor's rerun panel) how far it is. `bound` is the most blends it can take: the
-    alpha-1/2 cell of every time, and with bisected cells at most depth - 1 more of the path's per time."""
+    tells a front end (the editor's rerun panel) how far it is. `bound` is the most blends it can take
+    (ops.blending.image_matrix.network_calls_bound)."""
 
     def __init__(self, rife, partition: str, stage: str, bound: int):
         self._rife, self._partition, self._stage, self.bound, self.done = rife, partition, stage, bound, 0
@@ -77,9 +77,8 @@ def _matrix(env: StageEnv, s: int) -> StageResult:
     seq0, seq1 = _sides(env, s)
     st = env.settings
     _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(st.alpha_depth))
-    calls_per_row = 1 if st.matrix_cells == "scaled" else st.alpha_depth
     rife = _CountedRife(env.resource("rife").load(), env.partition, f"seg{s}/rife_matrix",
-                        len(seq0.times) * calls_per_row)
+                        network_calls_bound(len(seq0.times), st.alpha_depth, st.matrix_cells))
     matrix = path_matrix(seq0, seq1, q, weight, rife, st.alpha_depth, st.epsilon, st.blend, env.resource("rife").batch,
                          st.matrix_cells)
     mid = matrix.frames[:, len(matrix.alphas) // 2]

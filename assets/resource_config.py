@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 
+from ops.blending.rife_files import RUNTIMES
 from ops.errors import ShotError
 
 # resource key -> field -> (environment variable, type)
@@ -28,7 +29,7 @@ ENVIRONMENT: dict[str, dict[str, tuple[str, type]]] = {
     "inpainter": {"method": ("INBETWEEN_INPAINTER", str), "radius": ("INBETWEEN_INPAINT_RADIUS", int)},
 }
 
-CHOICES: dict[tuple[str, str], tuple[str, ...]] = {("rife", "runtime"): ("onnxruntime", "torch")}  # closed sets
+CHOICES: dict[tuple[str, str], tuple[str, ...]] = {("rife", "runtime"): RUNTIMES}  # closed sets
 
 
 def resource_overrides(env: Mapping[str, str] | None = None) -> dict[str, dict]:

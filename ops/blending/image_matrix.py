@@ -83,6 +83,12 @@ def bisection_closure(wanted: np.ndarray, depth: int) -> np.ndarray:
     return need
 
 
+def network_calls_bound(n_times: int, depth: int, cells: str) -> int:
+    """The most network calls (image pairs) a matrix of n_times rows makes for one path's cells: the alpha-1/2
+    call of every row, and with bisected cells at most depth - 1 more per row (a cell at the deepest level)."""
+    return n_times * (1 if cells == "scaled" else depth)
+
+
 def scaled_closure(wanted: np.ndarray) -> np.ndarray:
     """wanted: (T, A) bool cells -> (T, A) bool: them, both ends and alpha = 1/2 (the scaled cells need nothing
     else)."""

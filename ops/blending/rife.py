@@ -35,6 +35,7 @@ from ops.blending.crop import Box, coverage_box, cuts_ink, grow
 from ops.blending.rife_files import (  # noqa: F401  (WEIGHTS_*, default_weights_path: this module's API too)
     FIELD,
     ONNX_OPSET,
+    RUNTIMES,
     WEIGHTS_DIST,
     WEIGHTS_SHA256,
     checked_weights,
@@ -46,7 +47,6 @@ from ops.errors import ShotError
 
 SCALES = (4.0, 2.0, 1.0)  # HDv3 inference at scale 1.0: block i sees the images downsampled by SCALES[i]
 PAD_MULTIPLE = 32  # block0 convolves at 1/16 size (1/4 resize, two stride-2 convs); 32 as the reference pads
-RUNTIMES = ("torch", "onnxruntime")  # what runs the network on the CPU (load_rife)
 _TEACHER_PREFIX = "block_tea."  # training-time teacher block, stored in the file, unused at inference
 
 

@@ -20,6 +20,7 @@ WEIGHTS_FILE = "cli/ECCV2022-RIFE/train_log/flownet.pkl"
 WEIGHTS_SHA256 = "fe854fc8996547c953f732aaa3b78cae76cc0a12833ae856ea0749c4c570d7d8"
 FIELD = "rife weights"
 ONNX_OPSET = 17  # GridSample needs 16
+RUNTIMES = ("torch", "onnxruntime")  # what runs the network on the CPU (ops/blending/rife.py load_rife)
 NETWORK_MODULE = "ops.blending.rife"  # defines IFNet and exports it: its source is in the export's name
 
 

@@ -257,18 +257,14 @@ class OnnxRife:
         gives the midpoint, 0 and 1 the pair's own images (ops/blending/image_matrix.py, scaled cells)."""
         a0, a1 = np.asarray(a0, np.float32), np.asarray(a1, np.float32)
         out = np.broadcast_to(PAPER, a0.shape).copy()
-        same = ~(a0 != a1).reshape(len(a0), -1).any(1)  # an identical pair is its own frame at every alpha
-        out[same] = a0[same]
-        a0, a1, flow, mask, out_moving = a0[~same], a1[~same], flow[~same], mask[~same], out[~same]
-        if len(a0) == 0:
-            return out
         # outside the box around both images' coverage and the flows every sample is transparent: paper
         box = coverage_box(np.concatenate((a0[:, 3], a1[:, 3], (flow != 0).any(1))), margin=2, grid=1)
         if box is not None:
             ys, xs = box.slices
             f, m = scaled_flow_mask(flow[..., ys, xs], mask[..., ys, xs], alpha)
-            out_moving[..., ys, xs] = np.clip(blend_rgba(a0[..., ys, xs], a1[..., ys, xs], f, m), 0.0, 1.0)
-        out[~same] = out_moving
+            out[..., ys, xs] = np.clip(blend_rgba(a0[..., ys, xs], a1[..., ys, xs], f, m), 0.0, 1.0)
+        same = ~(a0 != a1).reshape(len(a0), -1).any(1)  # an identical pair is its own frame at every alpha
+        out[same] = a0[same]
         return out
 
 
