@@ -253,7 +253,8 @@ class ImageMatrix:
 
     times: np.ndarray  # (T,) float64
     alphas: np.ndarray  # (A,) float64 dyadic grid, 0 .. 1
-    frames: np.ndarray  # (T, A, H, W, 4) float32 (may be a np.memmap for long shots)
+    frames: np.ndarray  # (T, A, H, W, 4) float16 scaled cells, float32 bisected (image_matrix.cell_dtype; may be
+    #                     a np.memmap)
     flows: np.ndarray  # (T, H, W, 4) float32 RIFE flow at alpha = 1/2: (u0, v0) to frame 0, (u1, v1) to frame 1, pixels
     computed: np.ndarray  # (T, A) bool cells that hold their blend; the others were not needed and are zero
     # (T, H, W) float32 RIFE fusion mask at alpha = 1/2 (the weight of frame 0) where the cells off 1/2 were made

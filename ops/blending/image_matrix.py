@@ -16,6 +16,13 @@ the alpha grid is dyadic. Its cells come one of two ways (`cells`):
   (docs/performance.md).
 
 Rows are processed in chunks so a long shot only needs one chunk in memory.
+Scaled cells are kept in half precision (cell_dtype): a frame's 8-bit levels
+are 1/255 apart and a half's step below 1 is 1/2048 (the EXR frames are half
+already), at half the memory and half of what the store writes and hashes (on
+arm_cross's matrix 95 -> 48 MB, written 0.35 -> 0.18 s; the run's last
+seconds waited on that write). Bisected cells stay single: a cell read back
+as a parent would feed its rounding into the network. The blending itself is
+single precision either way.
 """
 from __future__ import annotations
 
@@ -61,13 +68,18 @@ def _check_inputs(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarray) -
         raise ValueError(f"{len(times)} times for {frames0.shape[0]} frames")
 
 
-def _check_out(out: np.ndarray | None, shape: tuple[int, ...], name: str) -> np.ndarray:
-    """Allocate zeroed float32 `shape` if `out` is None, else check it has that shape and dtype."""
+def cell_dtype(cells: str) -> type:
+    """The dtype of a matrix's cells made the `cells` way (module docstring); flows and masks are float32."""
+    return np.float16 if cells == "scaled" else np.float32
+
+
+def _check_out(out: np.ndarray | None, shape: tuple[int, ...], name: str, dtype=np.float32) -> np.ndarray:
+    """Allocate zeroed `dtype` `shape` if `out` is None, else check it has that shape and dtype."""
     if out is None:
         # zeros, not empty: the pages of the cells never computed are never touched (most of a path's matrix)
-        return np.zeros(shape, dtype=np.float32)
-    if out.shape != shape or out.dtype != np.float32:
-        raise ValueError(f"{name} must be float32 {shape}, got {out.dtype} {out.shape}")
+        return np.zeros(shape, dtype=dtype)
+    if out.shape != shape or out.dtype != dtype:
+        raise ValueError(f"{name} must be {np.dtype(dtype).name} {shape}, got {out.dtype} {out.shape}")
     return out
 
 
@@ -131,7 +143,8 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
                        wanted: Callable[[np.ndarray], np.ndarray] | None = None,
                        computed: np.ndarray | None = None, cells: str = "bisection",
                        masks_out: np.ndarray | None = None) -> ImageMatrix:
-    """frames0, frames1: (T, H, W, 4) straight RGBA -> ImageMatrix with frames (T, 2**depth + 1, H, W, 4).
+    """frames0, frames1: (T, H, W, 4) straight RGBA -> ImageMatrix with frames (T, 2**depth + 1, H, W, 4)
+    (cell_dtype(cells)).
 
     `cells`: "bisection" or "scaled" (module docstring); a scaled matrix keeps
     each row's alpha-1/2 fusion mask (`masks`, (T, H, W)) to make more cells
@@ -141,7 +154,7 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     zero and marked not computed. None: all.
     `batch` bounds the image pairs per RIFE call; rows are processed in chunks
     of `batch` rows, kept on the network's device between bisection levels, so
-    beyond `out` (optionally a np.memmap) and `flows_out` ((T, H, W, 4),
+    beyond `out` (cell_dtype(cells), optionally a np.memmap) and `flows_out` ((T, H, W, 4),
     likewise) only one chunk is held in memory. On a CPU one pair per call is
     fastest (larger batches fall out of cache); on a GPU use 8 or more.
     `computed` ((T, A) bool, with `out`, `flows_out` and, for scaled cells,
@@ -160,7 +173,7 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
     t_count, h, w, _ = frames0.shape
     n_a = len(alphas)
     given = out is not None
-    out = _check_out(out, (t_count, n_a, h, w, 4), "out")
+    out = _check_out(out, (t_count, n_a, h, w, 4), "out", cell_dtype(cells))
     flows_out = _check_out(flows_out, (t_count, h, w, 4), "flows_out")
     masks_out = _check_out(masks_out, (t_count, h, w), "masks_out") if scaled else None
     need = closure(np.zeros((t_count, n_a), bool) if wanted else np.ones((t_count, n_a), bool))
@@ -246,7 +259,8 @@ def complete_cells(matrix: ImageMatrix, frames0: np.ndarray, frames1: np.ndarray
     depth = int(round(np.log2(n_a - 1)))
     scaled = matrix.masks is not None
     return build_image_matrix(frames0, frames1, matrix.times, rife, depth=depth, batch=batch,
-                              out=np.array(matrix.frames, np.float32), flows_out=np.array(matrix.flows, np.float32),
+                              out=np.array(matrix.frames, cell_dtype("scaled" if scaled else "bisection")),
+                              flows_out=np.array(matrix.flows, np.float32),
                               wanted=lambda flows: want, computed=matrix.computed,
                               cells="scaled" if scaled else "bisection",
                               masks_out=np.array(matrix.masks, np.float32) if scaled else None)
