@@ -10,6 +10,7 @@ import numpy as np
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
 from ops.blending.image_matrix import alpha_grid, network_calls_bound
+from ops.blending.local_alpha import local_frames
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import (
@@ -159,11 +160,16 @@ def _frames_of(env: StageEnv, s: int) -> StageResult:
     chosen = paths.optimal if blend == "optimal" else paths.diagonal
     T = len(matrix.times)
     frames = select_frames(matrix.frames, chosen.alpha_index, matrix.computed)
+    meta = {"frames": T, "blend": blend, "cost": float(chosen.cost)}
+    strength = env.settings.local_alpha
+    if strength > 0 and matrix.masks is not None:
+        seq0, seq1 = _sides(env, s)
+        frames, moved = local_frames(frames, seq0, seq1, matrix, matrix.alphas[chosen.alpha_index], strength)
+        meta["local_alpha_share"] = [round(float(m), 4) for m in moved]
     out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
     sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
                                  paths.diagonal.alpha_index, thumb=72,
                                  computed=matrix.computed)
-    meta = {"frames": T, "blend": blend, "cost": float(chosen.cost)}
     return StageResult(out, meta, sheet)
 
 

@@ -111,7 +111,7 @@ def shot_graph(n_keys: int) -> ShotGraph:
         parents[f"seg{s}/rife_matrix"] = lanes
         parents[f"seg{s}/quality_metrics"] = (f"seg{s}/rife_matrix", *lanes)
         parents[f"seg{s}/optimal_path"] = (f"seg{s}/quality_metrics",)
-        parents[f"seg{s}/frames"] = (f"seg{s}/rife_matrix", f"seg{s}/optimal_path")
+        parents[f"seg{s}/frames"] = (f"seg{s}/rife_matrix", f"seg{s}/optimal_path", *lanes)
     if n_keys > 1:
         parents["inbetween_frames"] = tuple(f"seg{s}/frames" for s in range(n_seg))
     drawings = tuple(f"key{k}/drawing" for k in range(n_keys))

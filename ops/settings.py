@@ -36,6 +36,10 @@ class Settings:
         "How the image matrix's cells off alpha 1/2 are made (§5.2): 'scaled' (default) from each row's one RIFE "
         "call at alpha 1/2, its flows scaled to alpha; 'bisection' by recursive RIFE midpoints, as the paper (up "
         "to three calls a cell; ops/blending/image_matrix.py)."))
+    local_alpha: float = field(default=2.0, metadata=_doc(
+        "Per-pixel alpha (§5.2, extended): each interior frame's alpha moved by this strength times the difference "
+        "of the lanes' unreliable texture (inpainted or torn, as q counts it) around each pixel, toward the "
+        "reliable lane (ops/blending/local_alpha.py); 0 keeps one alpha per frame, as the paper."))
     supersample: int = field(default=2, metadata=_doc("Renderer supersampling factor per axis (anti-aliasing)."))
     template_mode: str = field(default="optimized",
                                metadata=_doc("'optimized' (2.5D template, §4.4) or 'single-layer' (ablation)."))

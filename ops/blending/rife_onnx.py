@@ -57,12 +57,14 @@ def pad_to_multiple(x: np.ndarray, multiple: int = PAD_MULTIPLE) -> np.ndarray:
     return np.pad(x, ((0, 0), (0, 0), (0, ph), (0, pw)), mode="edge")
 
 
-def warp(img: np.ndarray, flow: np.ndarray) -> np.ndarray:
-    """Backward warp: out(p) = img(p + flow(p)), bilinear, the sample point clamped to the frame;
-    img (N, C, H, W), flow (N, 2, H, W) pixels -> (N, C, H, W) float32."""
+def warp(img: np.ndarray, flow: np.ndarray, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """Backward warp: out(p) = img(origin + p + flow(p)), bilinear, the sample point clamped to the frame;
+    img (N, C, H, W), flow (N, 2, h, w) pixels of the (h, w) pixels from `origin` (y, x) on -> (N, C, h, w)
+    float32."""
     n, c, h, w = img.shape
-    x = np.clip(np.arange(w, dtype=np.float32) + flow[:, 0], 0.0, w - 1.0)
-    y = np.clip(np.arange(h, dtype=np.float32)[:, None] + flow[:, 1], 0.0, h - 1.0)
+    fh, fw = flow.shape[2:]
+    x = np.clip(np.arange(origin[1], origin[1] + fw, dtype=np.float32) + flow[:, 0], 0.0, w - 1.0)
+    y = np.clip(np.arange(origin[0], origin[0] + fh, dtype=np.float32)[:, None] + flow[:, 1], 0.0, h - 1.0)
     x0, y0 = np.floor(x), np.floor(y)
     fx, fy = (x - x0)[..., None], (y - y0)[..., None]
     x0, y0 = x0.astype(np.intp), y0.astype(np.intp)
@@ -80,23 +82,25 @@ def over_white(rgba: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(rgba[:, :3] * a + (1 - a), np.float32)
 
 
-def blend_rgba(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarray) -> np.ndarray:
-    """Warp and blend (N, 4, H, W) straight RGBA with the network's flow and mask (N, 1, H, W), the weight of
-    a0 -> (N, 4, H, W) straight RGBA; premultiplied, so transparent pixels' colours never bleed into edges."""
+def blend_rgba(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarray,
+               origin: tuple[int, int] = (0, 0)) -> np.ndarray:
+    """Warp and blend (N, 4, H, W) straight RGBA with the network's flow (N, 4, h, w) and mask (N, 1, h, w), the
+    weight of a0, of the (h, w) pixels from `origin` (y, x) on (the whole frame by default) -> (N, 4, h, w)
+    straight RGBA; premultiplied, so transparent pixels' colours never bleed into edges."""
     pre0 = np.concatenate((a0[:, :3] * a0[:, 3:4], a0[:, 3:4]), 1)
     pre1 = np.concatenate((a1[:, :3] * a1[:, 3:4], a1[:, 3:4]), 1)
-    pre = warp(pre0, flow[:, :2]) * mask + warp(pre1, flow[:, 2:4]) * (1 - mask)
+    pre = warp(pre0, flow[:, :2], origin) * mask + warp(pre1, flow[:, 2:4], origin) * (1 - mask)
     alpha = pre[:, 3:4]
     rgb = np.where(alpha > 1e-6, pre[:, :3] / np.maximum(alpha, 1e-6), np.float32(1.0))  # no colour: paper
     return np.concatenate((rgb, alpha), 1).astype(np.float32, copy=False)
 
 
-def scaled_flow_mask(flow, mask, alpha: float):
+def scaled_flow_mask(flow, mask, alpha):
     """The midpoint's flows (N, 4, H, W) and fusion mask (N, 1, H, W) moved to `alpha`: the flow to frame 0
     scaled by 2 alpha, to frame 1 by 2 (1 - alpha), as for motion along straight lines at constant speed, and
     the mask's odds weighted by (1 - alpha) / alpha (frame 0's share falls from 1 to 0 as alpha goes 0 -> 1).
-    NumPy arrays or torch tensors."""
-    a = float(alpha)
+    NumPy arrays or torch tensors; alpha a number, or per pixel an array (N, 1, H, W) (NumPy only)."""
+    a = alpha if isinstance(alpha, np.ndarray) else float(alpha)
     f = flow * 1.0  # a copy of either array type
     f[:, :2] *= 2.0 * a
     f[:, 2:4] *= 2.0 * (1.0 - a)
@@ -251,20 +255,30 @@ class OnnxRife:
         return np.clip(mid[..., :h, :w], 0.0, 1.0), flow[..., :h, :w], mask[..., :h, :w]
 
     @staticmethod
-    def blend_at(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarray, alpha: float) -> np.ndarray:
+    def blend_at(a0: np.ndarray, a1: np.ndarray, flow: np.ndarray, mask: np.ndarray,
+                 alpha: float | np.ndarray, region: Box | None = None) -> np.ndarray:
         """The frame at `alpha` of (N, 4, H, W) straight RGBA pairs from their midpoint's flow (N, 4, H, W) and
         mask (N, 1, H, W) (midpoint_flow_mask), the flows scaled linearly -> (N, 4, H, W) in [0, 1]; alpha 1/2
-        gives the midpoint, 0 and 1 the pair's own images (ops/blending/image_matrix.py, scaled cells)."""
+        gives the midpoint, 0 and 1 the pair's own images (ops/blending/image_matrix.py, scaled cells); alpha a
+        number or per pixel (N, 1, H, W) (ops/blending/local_alpha.py). region: only its pixels, (N, 4, h, w),
+        each as in the whole frame (a pixel's blend reads its own flow, mask and alpha alone)."""
         a0, a1 = np.asarray(a0, np.float32), np.asarray(a1, np.float32)
-        out = np.broadcast_to(PAPER, a0.shape).copy()
+        region = region or Box(0, a0.shape[2], 0, a0.shape[3])
+        out = np.broadcast_to(PAPER, (*a0.shape[:2], region.y1 - region.y0, region.x1 - region.x0)).copy()
         # outside the box around both images' coverage and the flows every sample is transparent: paper
         box = coverage_box(np.concatenate((a0[:, 3], a1[:, 3], (flow != 0).any(1))), margin=2, grid=1)
-        if box is not None:
+        inner = box and Box(max(box.y0, region.y0), min(box.y1, region.y1), max(box.x0, region.x0),
+                            min(box.x1, region.x1))
+        if inner and inner.y0 < inner.y1 and inner.x0 < inner.x1:
             ys, xs = box.slices
-            f, m = scaled_flow_mask(flow[..., ys, xs], mask[..., ys, xs], alpha)
-            out[..., ys, xs] = np.clip(blend_rgba(a0[..., ys, xs], a1[..., ys, xs], f, m), 0.0, 1.0)
+            iy, ix = inner.slices
+            a = alpha[..., iy, ix] if isinstance(alpha, np.ndarray) else alpha
+            f, m = scaled_flow_mask(flow[..., iy, ix], mask[..., iy, ix], a)
+            blend = blend_rgba(a0[..., ys, xs], a1[..., ys, xs], f, m, (inner.y0 - box.y0, inner.x0 - box.x0))
+            out[..., inner.y0 - region.y0:inner.y1 - region.y0, inner.x0 - region.x0:inner.x1 - region.x0] = \
+                np.clip(blend, 0.0, 1.0)
         same = ~(a0 != a1).reshape(len(a0), -1).any(1)  # an identical pair is its own frame at every alpha
-        out[same] = a0[same]
+        out[same] = a0[same][..., region.y0:region.y1, region.x0:region.x1]
         return out
 
 
