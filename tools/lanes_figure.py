@@ -4,7 +4,8 @@ note to show.
     python tools/lanes_figure.py SHOT_DIR --home INBETWEEN_HOME --out lanes.png [--segment 0] [--every 2]
 
 Rows: key0's lane (its template deformed through the motion: the image matrix at alpha 0), key1's lane (alpha 1),
-the blend the optimal path takes (its alpha printed), and the shot's ground truth where it has one. Columns: the
+the blend the optimal path takes (the segment's output frames, per-pixel alpha included; the path's alpha
+printed), and the shot's ground truth where it has one. Columns: the
 segment's output times (every `every`-th, the keys always). Every tile is cropped to the union of what the lanes
 draw, so the lanes' disagreement (a limb in two places, a tear, a smear) shows at the same place in each column.
 The lanes and the blend are shown over the paper the evaluation judges them on (ops.evaluation.plate: the keys'
@@ -68,12 +69,14 @@ def tile(img: np.ndarray, box: tuple[int, int, int, int], caption: str) -> np.nd
     return out
 
 
-def lane_rows(frames: np.ndarray, alpha_index: np.ndarray, cols: list[int], plate: np.ndarray
-              ) -> list[tuple[str, list[np.ndarray]]]:
+def lane_rows(frames: np.ndarray, alpha_index: np.ndarray, cols: list[int], plate: np.ndarray,
+              blended: np.ndarray | None = None) -> list[tuple[str, list[np.ndarray]]]:
     """Rows of (H, W, 3) 0-1 images from the image matrix's frames (T, A, H, W, 4): key0's lane (alpha 0), key1's
-    (alpha 1) and the path's blend (alpha_index (T,)) at the times cols, each over the (H, W, 3) paper plate."""
-    picks = [("key0 lane", lambda c: 0), ("key1 lane", lambda c: -1), ("blend", lambda c: alpha_index[c])]
-    return [(name, [over(frames[c, pick(c)][None], plate)[0] for c in cols]) for name, pick in picks]
+    (alpha 1) and the path's blend at the times cols, each over the (H, W, 3) paper plate. The blend: the output
+    frames `blended` (T, H, W, 4) where given, else the path's cells (alpha_index (T,))."""
+    picks = [("key0 lane", lambda c: frames[c, 0]), ("key1 lane", lambda c: frames[c, -1]),
+             ("blend", lambda c: frames[c, alpha_index[c]] if blended is None else blended[c])]
+    return [(name, [over(np.asarray(pick(c), np.float32)[None], plate)[0] for c in cols]) for name, pick in picks]
 
 
 def lanes_figure(shot_dir: Path, home: Path, segment: int = 0, every: int = 1) -> np.ndarray:
@@ -84,6 +87,10 @@ def lanes_figure(shot_dir: Path, home: Path, segment: int = 0, every: int = 1) -
     partition = partition_of(home / "shots.json", shot_dir) or shot_dir.resolve().name
     matrix = store.read(f"seg{segment}/rife_matrix", partition)
     paths = store.read(f"seg{segment}/optimal_path", partition)
+    try:  # the output frames (per-pixel alpha included); a store without them: the path's cells
+        blended = store.read(f"seg{segment}/frames", partition).frames
+    except (KeyError, FileNotFoundError):
+        blended = None
     n_t = len(matrix.times)
     cols = sorted(set(range(0, n_t, max(every, 1))) | {n_t - 1})
     first = shot.key_frames[segment]  # the segment's first output frame
@@ -97,7 +104,7 @@ def lanes_figure(shot_dir: Path, home: Path, segment: int = 0, every: int = 1) -
     plate = paper_plate([to_rgba(read_image(shot.keyframes[k], "keyframes")) for k in keys],
                         [m.coverage for m in masks], [m.paper for m in masks])
     box = crop_box([matrix.frames[c, a, ..., 3] for c in cols for a in (0, -1, alpha[c])])  # not the truth's paper
-    rows = lane_rows(matrix.frames, alpha, cols, plate)
+    rows = lane_rows(matrix.frames, alpha, cols, plate, blended)
     if truth:
         blank = np.ones_like(rows[0][1][0])
         rows.append(("truth", [truth.get(c, blank) for c in cols]))

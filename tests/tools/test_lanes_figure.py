@@ -85,3 +85,7 @@ def test_lanes_are_shown_over_the_paper_plate():
     assert np.allclose(key0[0][30, 40], plate[30, 40]) and np.allclose(key0[0][10, 10], (1, 0, 0))
     assert np.allclose(key1[1][10, 10], 0.5 * np.array([0, 0, 1]) + 0.5 * plate[10, 10])
     assert np.allclose(blend[0][10, 10], (1, 0, 0)) and np.allclose(blend[1], key1[1])  # the path's alpha per time
+    out = np.zeros((3, h, w, 4), np.float32)
+    out[:, 20:30, 20:30] = (0, 1, 0, 1)  # output frames that differ from the cells (per-pixel alpha)
+    blend = lane_rows(frames, np.array([0, 1, 1]), [0, 2], plate, out)[2][1]
+    assert np.allclose(blend[0][25, 25], (0, 1, 0)) and np.allclose(blend[0][10, 10], plate[10, 10])
