@@ -212,8 +212,9 @@ def incise(base: TemplateBase, assignments: list[Assignment]) -> Incised:
 
 def _nonmanifold_warning(F: np.ndarray) -> list[str]:
     """A warning if some edges have more than two faces (adjacent switch vertices sew three sheets)."""
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    _, cnt = np.unique(e, axis=0, return_counts=True)
+    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1).astype(np.int64)
+    # one integer per edge: np.unique over rows (axis=0) sorts a structured view, ten times slower
+    _, cnt = np.unique(e[:, 0] * (int(F.max(initial=0)) + 1) + e[:, 1], return_counts=True)
     bad = int((cnt > 2).sum())
     return [f"{bad} non-manifold edge(s) where switch vertices are adjacent"] if bad else []
 

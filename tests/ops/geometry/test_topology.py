@@ -326,6 +326,22 @@ def test_a_start_crumpled_at_the_other_pose_is_carried_over_earlier_along_the_mo
     assert np.isclose(energy, d.solve_along(path).energy, rtol=1e-3)
 
 
+def test_nonmanifold_edges_are_counted_as_by_brute_force():
+    from collections import Counter
+
+    from ops.geometry.topology import _nonmanifold_warning
+
+    rng = np.random.default_rng(5)
+    for n in (4, 30, 400):
+        F = rng.integers(0, n, (3 * n, 3))
+        F = F[(F[:, 0] != F[:, 1]) & (F[:, 1] != F[:, 2]) & (F[:, 0] != F[:, 2])]
+        edges = Counter(tuple(sorted((int(f[i]), int(f[(i + 1) % 3])))) for f in F for i in range(3))
+        bad = sum(c > 2 for c in edges.values())
+        assert _nonmanifold_warning(F) == ([f"{bad} non-manifold edge(s) where switch vertices are adjacent"]
+                                           if bad else [])
+    assert _nonmanifold_warning(np.zeros((0, 3), np.int64)) == []
+
+
 def test_a_candidate_warm_starts_from_any_topology_its_region_tried_before():
     # an odd region's probes move the cusp along the boundary: the topology that carries over to a later probe
     # may be one tried several probes earlier (arm_cross's key1 with five more T-junctions: the sixth probe
