@@ -20,10 +20,10 @@ Scaled cells are kept in half precision (cell_dtype): a frame's 8-bit levels
 are 1/255 apart and a half's step below 1 is 1/2048 (the EXR frames are half
 already), at half the memory of the cells and of what the store writes and
 hashes for them (arm_cross's stored matrix 95 -> 60 MB, its flows and masks
-kept single; hashed and written 0.18 -> 0.11 s alone, and in an edit, where
-the run's last half second waited on that write, 0.51 -> 0.08 s). Bisected cells stay single: a cell read back
-as a parent would feed its rounding into the network. The blending itself is
-single precision either way.
+kept single; hashed and written 0.18 -> 0.11 s alone, and 0.51 -> 0.08 s in an
+edit, whose last half second had waited on that write). Bisected cells stay
+single: a cell read back as a parent would feed its rounding into the network.
+The blending itself is single precision either way.
 """
 from __future__ import annotations
 
@@ -259,9 +259,9 @@ def complete_cells(matrix: ImageMatrix, frames0: np.ndarray, frames1: np.ndarray
         return matrix
     depth = int(round(np.log2(n_a - 1)))
     scaled = matrix.masks is not None
+    cells = "scaled" if scaled else "bisection"
     return build_image_matrix(frames0, frames1, matrix.times, rife, depth=depth, batch=batch,
-                              out=np.array(matrix.frames, cell_dtype("scaled" if scaled else "bisection")),
-                              flows_out=np.array(matrix.flows, np.float32),
-                              wanted=lambda flows: want, computed=matrix.computed,
-                              cells="scaled" if scaled else "bisection",
+                              out=np.array(matrix.frames, cell_dtype(cells)),
+                              flows_out=np.array(matrix.flows, np.float32), wanted=lambda flows: want,
+                              computed=matrix.computed, cells=cells,
                               masks_out=np.array(matrix.masks, np.float32) if scaled else None)

@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from ops.blending.crop import Box
+from ops.blending.quality import unreliable_pixels
 from ops.blending.rife_onnx import OnnxRife
 from ops.types import DeformedSequence, ImageMatrix
 
@@ -45,8 +46,9 @@ def local_frames(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSeque
         raise ValueError("per-pixel alpha needs a scaled matrix (Settings.matrix_cells 'scaled'): it keeps the masks")
     out = np.array(frames, np.float32)
     moved = np.zeros(len(frames))
+    u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)  # what q counts
     for t in range(1, len(frames) - 1):
-        a = local_alpha(float(alphas[t]), _unreliable(seq0, t), _unreliable(seq1, t), strength)
+        a = local_alpha(float(alphas[t]), u0[t], u1[t], strength)
         changed = a != np.float32(alphas[t])
         if not changed.any():
             continue
@@ -61,8 +63,3 @@ def local_frames(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSeque
         ys, xs = region.slices
         out[t, ys, xs] = np.where(changed[ys, xs, None], blend, out[t, ys, xs])
     return out, moved
-
-
-def _unreliable(seq: DeformedSequence, t: int) -> np.ndarray:
-    """(H, W) bool: frame t's visible texture that was inpainted or drawn by torn faces."""
-    return seq.inpainted[t] | seq.distorted[t] if seq.distorted is not None else seq.inpainted[t]

@@ -31,13 +31,17 @@ def inpainted_share(inpainted: np.ndarray, alpha: np.ndarray) -> np.ndarray:
     return np.divide(dirty, covered, out=np.zeros_like(covered), where=covered > 0)
 
 
+def unreliable_pixels(seq: DeformedSequence) -> np.ndarray:
+    """(T, H, W) bool: each frame's visible texture that is not the drawing as drawn: inpainted (the paper's q), or
+    drawn by faces distorted beyond the renderer's limit, where a mesh glued across an occlusion that the masks
+    missed tears and smears (our extension: without it, the path takes a torn lane whose pockets happen to need
+    no inpainting)."""
+    return seq.inpainted if seq.distorted is None else seq.inpainted | seq.distorted
+
+
 def unreliable_share(seq: DeformedSequence) -> np.ndarray:
-    """(T,) share of each frame's visible character whose texture is not the drawing as drawn: inpainted (the
-    paper's q), or drawn by faces distorted beyond the renderer's limit, where a mesh glued across an occlusion
-    that the masks missed tears and smears (our extension: without it, the path takes a torn lane whose
-    pockets happen to need no inpainting)."""
-    shown = seq.inpainted if seq.distorted is None else seq.inpainted | seq.distorted
-    return inpainted_share(shown, seq.images[..., 3])
+    """(T,) share of each frame's visible character whose texture is unreliable (unreliable_pixels)."""
+    return inpainted_share(unreliable_pixels(seq), seq.images[..., 3])
 
 
 def texture_quality(share0: np.ndarray, share1: np.ndarray, alphas: np.ndarray) -> np.ndarray:

@@ -267,9 +267,9 @@ class OnnxRife:
         out = np.broadcast_to(PAPER, (*a0.shape[:2], region.y1 - region.y0, region.x1 - region.x0)).copy()
         # outside the box around both images' coverage and the flows every sample is transparent: paper
         box = coverage_box(np.concatenate((a0[:, 3], a1[:, 3], (flow != 0).any(1))), margin=2, grid=1)
-        inner = box and Box(max(box.y0, region.y0), min(box.y1, region.y1), max(box.x0, region.x0),
-                            min(box.x1, region.x1))
-        if inner and inner.y0 < inner.y1 and inner.x0 < inner.x1:
+        inner = None if box is None else Box(max(box.y0, region.y0), min(box.y1, region.y1),
+                                             max(box.x0, region.x0), min(box.x1, region.x1))
+        if inner is not None and inner.y0 < inner.y1 and inner.x0 < inner.x1:
             ys, xs = box.slices
             iy, ix = inner.slices
             a = alpha[..., iy, ix] if isinstance(alpha, np.ndarray) else alpha
