@@ -30,7 +30,7 @@ from .graph import EVAL_STAGES, union_sources
 from .home import home, shots_root
 from .resource_config import resource_config, resource_overrides
 from .resource_types import RESOURCE_TYPES, model_resources
-from .stage import PARTITIONS, asset_key, source_assets, stage_asset
+from .stage import PARTITIONS, asset_key, source_asset, stage_asset
 from .stages import EVALUATION_STAGES, SHOT_STAGES
 
 # the sources this process defines its stages from (assets/run/ compares it with the files on disk)
@@ -72,16 +72,30 @@ def _versions(shots: ShotsResource, partition: str) -> dict[str, str]:
 SHOT_SELECTION = dg.AssetSelection.assets(*(asset_key(d.name) for d in SHOT_STAGES))
 
 
+_STAGE_DEFS = {d.name: d for d in (*SHOT_STAGES, *EVALUATION_STAGES)}
+
+
 @functools.cache
+def _source(name: str) -> dg.SourceAsset:
+    """The observable source asset `name`, made on first use."""
+    return source_asset(name, _versions)
+
+
+@functools.cache
+def _stage(name: str) -> dg.AssetsDefinition:
+    """The asset of stage `name`, made on first use: a run makes its shot's alone (about 5 ms each, most of it
+    Dagster reading the step function's signature), not all of them."""
+    return stage_asset(_STAGE_DEFS[name])
+
+
 def _sources() -> dict[str, dg.SourceAsset]:
     """Every source any shot can have, as an observable source asset, by name."""
-    return {"/".join(a.key.path): a for a in source_assets(_versions)}
+    return {n: _source(n) for n in union_sources()}
 
 
-@functools.cache
 def _stage_assets() -> dict[str, dg.AssetsDefinition]:
-    """Every stage's asset (the shots' and the evaluation group's), by name, made on first use."""
-    return {d.name: stage_asset(d) for d in (*SHOT_STAGES, *EVALUATION_STAGES)}
+    """Every stage's asset (the shots' and the evaluation group's), by name."""
+    return {n: _stage(n) for n in _STAGE_DEFS}
 
 
 def __getattr__(name: str):
@@ -160,7 +174,7 @@ def shot_definitions(stages: Collection[str], sources: Collection[str],
     and loggers of `build_definitions`: what one run of an in-process executor needs. Its asset keys, code
     versions and lineage are the full Definitions' (a stage's parents in a shot of another size stay outside,
     as external assets), so what it records is what the UI reads."""
-    return dg.Definitions(assets=[*(_sources()[n] for n in sources), *(_stage_assets()[n] for n in stages)],
+    return dg.Definitions(assets=[*(_source(n) for n in sources), *(_stage(n) for n in stages)],
                           resources=build_resources(settings), loggers=LOGGERS)
 
 

@@ -95,20 +95,17 @@ def stage_asset(stage: StageDef):
     return _asset
 
 
-def source_assets(versions_fn: Callable[[ShotsResource, str], dict[str, str]]) -> list:
-    """Observable sources whose data versions are content hashes of exactly what they cover."""
-    out = []
-    for name in union_sources():
-        def observe(context, shots: ShotsResource, _name=name):
-            keys = [context.partition_key] if context.has_partition_key else context.instance.get_dynamic_partitions("shots")
-            # a shot of fewer keys has no such source: a fixed version, never a change
-            return dg.DataVersionsByPartition({k: dg.DataVersion(versions_fn(shots, k).get(_name, "absent"))
-                                               for k in keys})
+def source_asset(name: str, versions_fn: Callable[[ShotsResource, str], dict[str, str]]) -> dg.SourceAsset:
+    """The observable source `name`, whose data version is a content hash of exactly what it covers."""
+    def observe(context, shots: ShotsResource):
+        keys = [context.partition_key] if context.has_partition_key else context.instance.get_dynamic_partitions("shots")
+        # a shot of fewer keys has no such source: a fixed version, never a change
+        return dg.DataVersionsByPartition({k: dg.DataVersion(versions_fn(shots, k).get(name, "absent"))
+                                           for k in keys})
 
-        group = name.split("/")[0] if "/" in name else "evaluation"  # ground_truth
-        out.append(dg.observable_source_asset(key=asset_key(name), partitions_def=PARTITIONS, group_name=group,
-                                              description=_SOURCE_DOCS[name.split("/")[-1]])(observe))
-    return out
+    group = name.split("/")[0] if "/" in name else "evaluation"  # ground_truth
+    return dg.observable_source_asset(key=asset_key(name), partitions_def=PARTITIONS, group_name=group,
+                                      description=_SOURCE_DOCS[name.split("/")[-1]])(observe)
 
 
 _SOURCE_DOCS = {
