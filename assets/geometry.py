@@ -16,7 +16,7 @@ from ops.segmentation.refine import refine_masks
 from ops.shotio.image_io import read_image
 from ops.types import DeformedSequence, Masks, RefinedMasks, Shot, Template, TexturedTemplate
 
-from .compute import StageDef, StageEnv, StageResult, stage
+from .compute import STAGE_SPECS, StageDef, StageEnv, StageResult, stage
 from .graph import side
 
 
@@ -114,9 +114,15 @@ def _template(k: int):
 
 
 def _previous_template(env: StageEnv, k: int) -> Template | None:
-    """The template an earlier run stored for this keyframe (its unchanged regions keep their cuts), or None."""
+    """The template an earlier run stored for this keyframe (its unchanged regions keep their cuts), or None.
+    Only one the same code made counts: a region's key digests what its search read, not how it searched, so
+    cuts chosen by an older search are searched again."""
+    name = f"key{k}/template"
     try:
-        previous = env.store.read(f"key{k}/template", env.partition)
+        _, record = env.store.provenance(name, env.partition)
+        if record is None or record.get("code") != STAGE_SPECS[name].code:
+            return None
+        previous = env.store.read(name, env.partition)
     except Exception:  # none yet, or damaged: search every region
         return None
     return previous if isinstance(previous, Template) else None

@@ -23,7 +23,7 @@ from resources.storage import DIGEST_KEY, PROVENANCE_KEY
 from . import progress
 from .codeversion import code_version
 from .compute import STAGE_SPECS, MissingParents, StageDef, StageEnv, run_stage, working_ahead
-from .graph import shot_graph, union_graph, union_sources
+from .graph import shot_graph, union_graph
 from .provenance import parent_versions
 from .resource_types import RESOURCE_TYPES  # noqa: F401  (the stages' resources, by key: re-exported)
 

@@ -1,5 +1,6 @@
 """Tests of ops.topology: switching-rule counts, incision by re-indexing, seeded search."""
 import itertools
+import types
 
 import cv2
 import numpy as np
@@ -466,3 +467,25 @@ def test_odd_search_finds_the_exhaustive_minimum_and_is_reproducible():
     every = [evaluate(base, [o], path)[0] for o in enumerate_assignments(20, np.array([5]))]
     assert a.trials < len(every) / 2  # 38 cuts, far fewer deformed
     assert a.energy <= min(every) * (1 + 2e-3)
+
+
+def test_a_template_stored_by_other_code_gives_no_cuts_to_keep(tmp_path):
+    """The run hands the search its stored template only when the same code made it: a region's key digests
+    what its search read, not how it searched, so a changed search must search again (assets/geometry.py)."""
+    import assets.stages  # noqa: F401  (declares the stages: their code records)
+    from assets.compute import STAGE_SPECS
+    from assets.geometry import _previous_template
+    from resources.store import Store
+
+    refined, sk, p0, p1 = two_region_scene()
+    template = optimize_topology(refined, p0, p1, sk)
+    store, name = Store(tmp_path), "key1/template"
+    env = types.SimpleNamespace(store=store, partition="shot")
+    assert _previous_template(env, 1) is None  # nothing stored yet
+    code = dict(STAGE_SPECS[name].code)
+    store.write(name, "shot", template, provenance={"parents": {}, "settings": {}, "code": code})
+    kept = _previous_template(env, 1)
+    assert kept is not None and kept.region_keys == template.region_keys
+    code["ops/geometry/topology.py"] = "an older search"
+    store.write(name, "shot", template, provenance={"parents": {}, "settings": {}, "code": code})
+    assert _previous_template(env, 1) is None
