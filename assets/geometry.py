@@ -9,6 +9,7 @@ import numpy as np
 
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
+from ops.appearance.tears import torn_shares, torn_warning
 from ops.geometry.deform import count_flipped
 from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
@@ -173,13 +174,14 @@ def _deformed(s: int, k: int):
                           st.mu, st.supersample, other)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
-
-        def share_max(pixels: np.ndarray) -> float:  # the worst frame's share of its visible character
-            return float((pixels.sum((1, 2)) / coverage).max())
-
+        torn = torn_warning(seq, shot.segment_poses(s), shot.key_pose(k), shot.skeleton, k)
+        if torn is not None:
+            env.context.log.warning(torn)
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
-                "iterations_total": int(seq.iterations.sum()), "inpainted_share_max": share_max(seq.inpainted),
-                "distorted_share_max": share_max(seq.distorted), "registered": seq.fade is not None}
+                "iterations_total": int(seq.iterations.sum()),
+                "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max()),
+                "distorted_share_max": float(torn_shares(seq).max()), "registered": seq.fade is not None,
+                "warnings": [torn] if torn is not None else []}
         if seq.fade is not None:  # the injectivity cap often leaves frames short of their eased weight (lanes.md)
             meta["registration_weight_at_other_key"] = float(seq.fade[0 if backward else -1])
             meta["registration_weight"] = [round(float(w), 3) for w in seq.fade]

@@ -12,12 +12,12 @@ from assets.graph import shot_graph
 from ops.warning_subject import parse
 from resources.store import Store
 
-KEY_STAGE = re.compile(r"^key(\d+)/")
+KEY_STAGE = re.compile(r"^(?:seg\d+/)?key(\d+)/")  # a key's lane, or its side of a segment (the lane deformed)
 
 
 def stage_warnings(store: Store, partition: str, stages=shot_graph(2).stages) -> list[dict]:
     """The stored stages' warnings, upstream first, each once per keyframe: {"stage", "k" (None: not a
-    keyframe's lane), "text", "kind" (None: about the keyframe or the shot as a whole), "names", "index",
+    keyframe's lane or side), "text", "kind" (None: about the keyframe or the shot as a whole), "names", "index",
     "at" ([x, y] keyframe pixels or None), "problem", "fix"}."""
     out, seen = [], set()
     for name in stages:

@@ -1,0 +1,55 @@
+"""Tests of ops.appearance.tears: the warning for a lane that tears, at the bones it tears along."""
+import numpy as np
+
+from ops.appearance.tears import TORN_SHARE, torn_shares, torn_warning
+from ops.types import DeformedSequence, Skeleton
+from ops.warning_subject import parse
+
+SKELETON = Skeleton(joints=("hip", "knee", "foot", "toe"), parents=np.array([-1, 0, 1, 2]))  # bones 0, 1, 2
+
+
+def sequence(torn_boxes: list[tuple[int, int, int, int]], frame: int = 1, size: int = 64,
+             visible: tuple[int, int, int, int] | None = None) -> DeformedSequence:
+    """Three frames of a character covering the (size, size) image (or the box `visible`, (x0, y0, x1, y1));
+    frame `frame` torn in the boxes, the others not."""
+    T = 3
+    images = np.zeros((T, size, size, 4), np.float32)
+    x0, y0, x1, y1 = visible or (0, 0, size, size)
+    images[:, y0:y1, x0:x1, 3] = 1.0
+    distorted = np.zeros((T, size, size), bool)
+    for x0, y0, x1, y1 in torn_boxes:
+        distorted[frame, y0:y1, x0:x1] = True
+    return DeformedSequence(times=np.linspace(0, 1, T), vertices=np.zeros((T, 3, 2)), images=images,
+                            inpainted=np.zeros((T, size, size), bool), energies=np.zeros(T),
+                            iterations=np.zeros(T, np.int64), distorted=distorted)
+
+
+# in the frames: the thigh (hip-knee) along y = 10, the shin (knee-foot) down x = 60, the foot (foot-toe) along
+# y = 60; at the key, the whole leg lies elsewhere, so the warning's place must come from the key's pose
+FRAME_POSE = np.array([[0, 10, 0], [60, 10, 0], [60, 60, 0], [10, 60, 0]], float)
+KEY_POSE = FRAME_POSE + [100, 200, 0]
+POSES = np.stack([FRAME_POSE] * 3)
+
+
+def test_a_frame_torn_past_the_share_is_warned_of_at_its_bone_in_the_keys_place():
+    # a character drawn along the shin alone, torn over 30 of its 64 rows: 47 %, every torn pixel nearest the shin
+    seq = sequence([(52, 20, 64, 50)], visible=(52, 0, 64, 64))
+    assert torn_shares(seq)[1] > TORN_SHARE and torn_shares(seq)[0] == 0
+    s = parse(torn_warning(seq, POSES, KEY_POSE, SKELETON, key=1))
+    assert s is not None and s.kind == "bone" and s.names == ("knee-foot",)
+    np.testing.assert_allclose(s.at, KEY_POSE[[1, 2], :2].mean(axis=0))
+    assert "frame 1" in s.problem and "key1" in s.fix
+
+
+def test_two_bones_sharing_the_tear_are_both_named():
+    seq = sequence([(0, 0, 64, 20), (0, 44, 64, 64)])  # the thigh's band and the foot's: 62 % of the character
+    s = parse(torn_warning(seq, POSES, KEY_POSE, SKELETON, key=0))
+    assert s.kind == "bones" and set(s.names) == {"hip-knee", "foot-toe"}
+
+
+def test_no_warning_at_or_below_the_share():
+    seq = sequence([(0, 0, 64, int(64 * TORN_SHARE))])
+    assert torn_shares(seq).max() <= TORN_SHARE
+    assert torn_warning(seq, POSES, KEY_POSE, SKELETON, key=0) is None
+    seq.distorted = None  # a sequence rendered without the mark
+    assert torn_warning(seq, POSES, KEY_POSE, SKELETON, key=0) is None
