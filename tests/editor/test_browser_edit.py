@@ -308,3 +308,24 @@ def test_every_stage_row_shows_its_seconds_whole_however_long_its_name(serve, sm
     assert rows and all(inside for _, inside, _, _ in rows), [r for r in rows if not r[1]]
     assert any(text.startswith("re-ran") for _, _, text, _ in rows)
     assert all(title == stage for stage, _, _, title in rows)
+
+
+def test_a_long_stage_names_warning_count_stays_in_view(serve, small_shot, open_page):
+    """The name gives way, not the ⚠ count after it ("seg0/key1/deformed_frames…" hid a torn lane's warning)."""
+    s = serve(small_shot)
+    torn = about("bone", "key1's lane draws 59% of the character from stretched triangles", name="r_knee-r_foot",
+                 at=(96, 150), fix="click the T-junctions")
+    s.state.store.write("seg0/key1/deformed_frames", s.state.partition, _Output(np.zeros(1)),
+                        provenance={"warnings": [torn]})
+    page = open_page(s.url, width=1300)  # a panel narrow enough to cut the name short
+    sel = "#stage-list li[data-stage='seg0/key1/deformed_frames']"
+    until(page, f"() => document.querySelector(\"{sel} .w\") !== null", 20)
+    box = page.evaluate(f"""() => {{
+        const li = document.querySelector("{sel}"), w = li.querySelector('.w'), st = li.querySelector('.st');
+        const a = w.getBoundingClientRect(), c = st.getBoundingClientRect();
+        const b = li.querySelector('.name').getBoundingClientRect();  // its box clips what overflows it
+        return a.width > 0 && a.left >= b.left && a.right <= b.right + 0.5 && b.right <= c.left + 0.5;
+    }}""")
+    assert box, "the warning count is cut off"
+    # the key's pane shows it at the bone, from the side's stage
+    until(page, "() => document.querySelectorAll(\".keypane[data-k='1'] .bubble.warning[data-kind='bone']\").length === 1", 20)

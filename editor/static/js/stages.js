@@ -96,7 +96,10 @@ export class StagesPanel {
     li.dataset.stage = name;
     const label = document.createElement('span');
     label.className = 'name';
-    label.textContent = name;
+    const full = document.createElement('span');
+    full.className = 'text';  // cut short with an ellipsis where the panel is narrow; the warning count stays shown
+    full.textContent = name;
+    label.append(full);
     label.title = name;  // in full, where a narrow panel cuts it short
     const what = document.createElement('span');
     what.className = 'st';
