@@ -9,7 +9,7 @@ import numpy as np
 
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
-from ops.appearance.tears import torn_shares, torn_warning
+from ops.evaluation.lane_checks import agreement, agreement_warning, torn_shares, torn_warning
 from ops.geometry.deform import count_flipped
 from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
@@ -169,19 +169,24 @@ def _deformed(s: int, k: int):
         textured: TexturedTemplate = env.read(side(s, k, "textured_template"))
         backward = k != shot.segment_keys(s)[0]  # the segment's last key deforms from its own end
         others = [o for o in shot.segment_keys(s) if o != k]
-        other = env.read(f"key{others[0]}/masks") if others and st.register_lanes else None
+        other = env.read(f"key{others[0]}/masks") if others else None
         seq = env.offload(deform_lane, textured, shot.segment_times(s), shot.segment_poses(s), backward, shot.size,
-                          st.mu, st.supersample, other)
+                          st.mu, st.supersample, other if st.register_lanes else None)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
-        torn = torn_warning(seq, shot.segment_poses(s), shot.key_pose(k), shot.skeleton, k)
-        if torn is not None:
-            env.context.log.warning(torn)
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
                 "iterations_total": int(seq.iterations.sum()),
                 "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max()),
-                "distorted_share_max": float(torn_shares(seq).max()), "registered": seq.fade is not None,
-                "warnings": [torn] if torn is not None else []}
+                "distorted_share_max": float(torn_shares(seq).max()), "registered": seq.fade is not None}
+        warnings = [torn_warning(seq, shot.segment_poses(s), shot.key_pose(k), shot.skeleton, k)]
+        if other is not None:  # the lane at the other key's pose against that key's drawing (docs/lanes.md)
+            db, difference = agreement(seq.images[0 if backward else -1], other)
+            meta["agreement_db"] = round(db, 3)
+            warnings.append(agreement_warning(db, difference, shot.key_pose(others[0]), shot.key_pose(k),
+                                              shot.skeleton, k, others[0]))
+        meta["warnings"] = [w for w in warnings if w is not None]
+        for w in meta["warnings"]:
+            env.context.log.warning(w)
         if seq.fade is not None:  # the injectivity cap often leaves frames short of their eased weight (lanes.md)
             meta["registration_weight_at_other_key"] = float(seq.fade[0 if backward else -1])
             meta["registration_weight"] = [round(float(w), 3) for w in seq.fade]

@@ -1,8 +1,10 @@
-"""Tests of ops.appearance.tears: the warning for a lane that tears, at the bones it tears along."""
+"""Tests of ops.evaluation.lane_checks: the warnings for a lane that tears or misses the other key, at the bones
+where it does."""
 import numpy as np
 
-from ops.appearance.tears import TORN_SHARE, torn_shares, torn_warning
-from ops.types import DeformedSequence, Skeleton
+from ops.evaluation.lane_checks import AGREE_DB, TORN_SHARE, agreement, agreement_warning, torn_shares, torn_warning
+from ops.evaluation.metrics import psnr
+from ops.types import DeformedSequence, Masks, Skeleton
 from ops.warning_subject import parse
 
 SKELETON = Skeleton(joints=("hip", "knee", "foot", "toe"), parents=np.array([-1, 0, 1, 2]))  # bones 0, 1, 2
@@ -53,3 +55,36 @@ def test_no_warning_at_or_below_the_share():
     assert torn_warning(seq, POSES, KEY_POSE, SKELETON, key=0) is None
     seq.distorted = None  # a sequence rendered without the mark
     assert torn_warning(seq, POSES, KEY_POSE, SKELETON, key=0) is None
+
+
+def masks_of(colour: np.ndarray, coverage: np.ndarray) -> Masks:
+    """A key's masks holding a drawing of `colour` (H, W, 3) under `coverage` (H, W) on grey paper."""
+    paper = np.full(colour.shape, 0.9, np.float32)
+    return Masks(foreground=coverage > 0, occlusion=[], front_bones=[], coverage=coverage.astype(np.float32),
+                 colour=colour.astype(np.float32), paper=paper, source="manual", holes=np.zeros(coverage.shape, bool),
+                 n_holes=0)
+
+
+def test_agreement_is_the_psnr_against_the_drawing_the_masks_hold():
+    rng = np.random.default_rng(3)
+    coverage = np.zeros((64, 64), np.float32)
+    coverage[10:54, 55:62] = 1.0  # the shin, drawn dark
+    m = masks_of(rng.uniform(0, 0.3, (64, 64, 3)), coverage)
+    drawing = coverage[..., None] * m.colour + (1 - coverage[..., None]) * m.paper
+    lane = np.concatenate([m.colour, coverage[..., None]], axis=-1)  # the drawing's own character
+    db, diff = agreement(lane, m)
+    assert db > 60 and diff.max() < 1e-5
+    moved = np.roll(lane, 5, axis=1)  # the shin drawn 5 px to the right
+    db, diff = agreement(moved, m)
+    got = moved[..., :3] * moved[..., 3:] + (1 - moved[..., 3:]) * m.paper
+    assert abs(db - psnr(got, drawing)) < 1e-9 and diff[30, 62] > 0.3 and diff[30, 20] == 0
+
+
+def test_a_lane_far_from_the_other_drawing_is_warned_of_at_the_bone_where_it_differs():
+    diff = np.zeros((64, 64))
+    diff[20:50, 56:64] = 1.0  # the difference lies along the shin (x = 60 at the other key's pose)
+    s = parse(agreement_warning(AGREE_DB - 2, diff, FRAME_POSE, KEY_POSE, SKELETON, key=0, other=1))
+    assert s.kind == "bone" and s.names == ("knee-foot",) and "19.0 dB from key1's drawing" in s.problem
+    np.testing.assert_allclose(s.at, KEY_POSE[[1, 2], :2].mean(axis=0))  # at the lane's own key, where it is fixed
+    assert "left/right mix-up" in s.fix
+    assert agreement_warning(AGREE_DB, diff, FRAME_POSE, KEY_POSE, SKELETON, key=0, other=1) is None
