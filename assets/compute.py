@@ -58,6 +58,7 @@ class StageEnv:
     memory: dict[str, Any] = field(default_factory=dict)  # outputs this run already computed, by stage
     stage: str = ""  # the stage this environment computes
     parallel: bool = False  # op calls go to worker processes (assets/processes.py): the work-ahead's runs
+    code: dict[str, str] | None = None  # the stage's code record as run_stage compares it (None: not set yet)
 
     @cached_property
     def shot(self) -> Shot:
@@ -174,6 +175,7 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
     if cached:  # identical inputs and intact output: nothing to compute, nothing to write
         result = StageResult(None, {"warnings": (recorded or {}).get("warnings", [])})
     else:
+        env.code = code  # the record the stored output is judged by, for a stage that reuses its own (the template)
         result = spec.compute(env)
         version = content_hash(result.value)
         record = {**provenance(parents, env.settings.read, code, resources),

@@ -121,7 +121,7 @@ def _previous_template(env: StageEnv, k: int) -> Template | None:
     name = f"key{k}/template"
     try:
         _, record = env.store.provenance(name, env.partition)
-        if record is None or record.get("code") != STAGE_SPECS[name].code:
+        if record is None or record.get("code") != (env.code or STAGE_SPECS[name].code):
             return None
         previous = env.store.read(name, env.partition)
     except Exception:  # none yet, or damaged: search every region

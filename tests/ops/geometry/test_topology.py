@@ -480,12 +480,16 @@ def test_a_template_stored_by_other_code_gives_no_cuts_to_keep(tmp_path):
     refined, sk, p0, p1 = two_region_scene()
     template = optimize_topology(refined, p0, p1, sk)
     store, name = Store(tmp_path), "key1/template"
-    env = types.SimpleNamespace(store=store, partition="shot")
+    env = types.SimpleNamespace(store=store, partition="shot", code=None)  # None: the stage's record computed
     assert _previous_template(env, 1) is None  # nothing stored yet
     code = dict(STAGE_SPECS[name].code)
     store.write(name, "shot", template, provenance={"parents": {}, "settings": {}, "code": code})
     kept = _previous_template(env, 1)
     assert kept is not None and kept.region_keys == template.region_keys
+    env.code = dict(code)  # the record the run compares by, when run_stage has set it
+    assert _previous_template(env, 1) is not None
     code["ops/geometry/topology.py"] = "an older search"
     store.write(name, "shot", template, provenance={"parents": {}, "settings": {}, "code": code})
+    assert _previous_template(env, 1) is None
+    env.code = None
     assert _previous_template(env, 1) is None
