@@ -9,7 +9,7 @@ import numpy as np
 
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
-from ops.evaluation.lane_checks import agreement, agreement_warning, torn_shares, torn_warning
+from ops.evaluation.lane_checks import agreement, agreement_warning, character_shares, torn_shares, torn_warning
 from ops.geometry.deform import count_flipped
 from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
@@ -173,10 +173,9 @@ def _deformed(s: int, k: int):
         seq = env.offload(deform_lane, textured, shot.segment_times(s), shot.segment_poses(s), backward, shot.size,
                           st.mu, st.supersample, other if st.register_lanes else None)
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
-        coverage = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
                 "iterations_total": int(seq.iterations.sum()),
-                "inpainted_share_max": float((seq.inpainted.sum((1, 2)) / coverage).max()),
+                "inpainted_share_max": float(character_shares(seq, seq.inpainted).max()),
                 "distorted_share_max": float(torn_shares(seq).max()), "registered": seq.fade is not None}
         warnings = [torn_warning(seq, shot.segment_poses(s), shot.key_pose(k), shot.skeleton, k)]
         if other is not None:  # the lane at the other key's pose against that key's drawing (docs/lanes.md)

@@ -50,12 +50,18 @@ def _along(pixels: np.ndarray, pose: np.ndarray, own_pose: np.ndarray, skeleton:
     return (names[0] if len(names) == 1 else names), at, len(names) == 1
 
 
-def torn_shares(seq: DeformedSequence) -> np.ndarray:
-    """(T,) float64 share of each frame's visible character (alpha > 0.5) drawn from stretched faces."""
-    if seq.distorted is None:
+def character_shares(seq: DeformedSequence, pixels: np.ndarray | None) -> np.ndarray:
+    """(T,) float64 share of each frame's visible character (alpha > 0.5) that the (T, H, W) bool pixels mark
+    (None: none)."""
+    if pixels is None:
         return np.zeros(len(seq.times))
     visible = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
-    return seq.distorted.sum((1, 2)) / visible
+    return pixels.sum((1, 2)) / visible
+
+
+def torn_shares(seq: DeformedSequence) -> np.ndarray:
+    """(T,) float64 share of each frame's visible character drawn from stretched faces."""
+    return character_shares(seq, seq.distorted)
 
 
 def torn_warning(seq: DeformedSequence, poses: np.ndarray, key_pose: np.ndarray, skeleton: Skeleton,
