@@ -155,6 +155,11 @@ class Outcome:
     preview_md: str | None  # the preview as inline markdown for the UI
 
 
+# metadata a stage's provenance keeps beside its warnings, for the run's report: the lanes' agreement with the
+# other key (report.json's segments, `lane_agreement_db`)
+RECORDED_METRICS = ("agreement_db",)
+
+
 def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings: Settings,
               code: dict[str, str] | None = None) -> Outcome:
     """Compute stage `name` unless its stored output was made from exactly these parents' data versions, the
@@ -180,6 +185,9 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
         version = content_hash(result.value)
         record = {**provenance(parents, env.settings.read, code, resources),
                   "warnings": list(result.metadata.get("warnings", []))}
+        metrics = {k: result.metadata[k] for k in RECORDED_METRICS if k in result.metadata}
+        if metrics:
+            record["metrics"] = metrics
     seconds = time.perf_counter() - start
     preview_md = None
     if result.preview is not None:

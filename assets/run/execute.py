@@ -24,7 +24,7 @@ from ops.shotio.versions import source_versions
 from ops.types import Shot
 
 from .. import processes, progress
-from ..graph import EVAL_STAGES, shot_graph
+from ..graph import EVAL_STAGES, shot_graph, side
 from .errors import StageFailed
 from .locks import shot_lock
 from .logs import log_path
@@ -131,7 +131,8 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
             frames = read_output("inbetween_frames", partition, outputs)
             names = plan_stages(shot)
             repairs = stage_warnings(partition, names)
-            segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend)
+            segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend,
+                                        _lane_agreement(st, partition, shot, s))
                         for s in range(shot.n_keys - 1)]
         stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
                       "warnings": repairs.get(n, 0)} for n in names}
@@ -141,7 +142,7 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
                   "blend": settings.blend if segments else "none", "template": settings.template_mode, "stages": stages,
                   "frames_version": st.hash("inbetween_frames", partition), "segments": segments}
         if segments:  # the first segment's, where a two-key (v1) shot always had it
-            report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames")}
+            report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames", "lane_agreement_db")}
         report["seconds_total"] = round(time.perf_counter() - start, 3)  # so far: re-stamped once written
         write_outputs(out_dir, frames.frames, report, exports, fps, staged.folder(report["frames_version"]))
         report["seconds_total"] = round(time.perf_counter() - start, 3)
@@ -156,11 +157,24 @@ def plan_stages(shot: Shot) -> tuple[str, ...]:
     return shot_graph(shot.n_keys).stages
 
 
-def _segment_report(shot: Shot, s: int, paths, blend: str) -> dict:
-    """Segment s in report.json: its keys and output frames, its path (alpha per frame), costs, abrupt steps."""
+def _lane_agreement(st, partition: str, shot: Shot, s: int) -> dict[str, float | None]:
+    """{"key{k}->key{o}": dB} of segment s: each side's lane at the other key's pose against that key's drawing,
+    as its deformed_frames stage recorded it (None where its record predates the measure)."""
+    out = {}
+    for k in shot.segment_keys(s):
+        o = [j for j in shot.segment_keys(s) if j != k][0]
+        _, recorded = st.provenance(side(s, k, "deformed_frames"), partition)
+        out[f"key{k}->key{o}"] = ((recorded or {}).get("metrics") or {}).get("agreement_db")
+    return out
+
+
+def _segment_report(shot: Shot, s: int, paths, blend: str, agreement: dict[str, float | None]) -> dict:
+    """Segment s in report.json: its keys and output frames, its path (alpha per frame), costs, abrupt steps, and
+    its lanes' agreement with the other key (dB)."""
     chosen = paths.optimal if blend == "optimal" else paths.diagonal
     frames = shot.segment_frames(s)
     return {"keys": list(shot.segment_keys(s)), "frames": [int(frames[0]), int(frames[-1])],
+            "lane_agreement_db": agreement,
             "alphas": [float(paths.alphas[i]) for i in chosen.alpha_index],
             "cost": float(chosen.cost), "cost_optimal": float(paths.optimal.cost),
             "cost_diagonal": float(paths.diagonal.cost),

@@ -43,6 +43,10 @@ def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, 
     assert frames.shape[3] == 4 and frames.shape[1:3] == (192, 192)
     report = json.loads((out / "report.json").read_text())
     assert report["frames"] == n and len(report["times"]) == n and set(report["stages"]) == set(STAGES)
+    # each lane's agreement with the other key, as its deformed_frames stage measured it (docs/lanes.md)
+    agreement = report["segments"][0]["lane_agreement_db"]
+    assert set(agreement) == {"key0->key1", "key1->key0"} and all(20 < v < 60 for v in agreement.values())
+    assert "lane_agreement_db" not in report["path"]
     # the output's first and last frames are the keyframes (issue 8: >= 40 dB composited over white)
     from ops.evaluation.metrics import psnr
     from ops.shotio.image_io import read_image
@@ -50,7 +54,7 @@ def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, 
     for i, key in ((0, "key0.png"), (-1, "key1.png")):
         assert psnr(frames[i], read_image(small_shot / key)) >= 40.0
     second = run_shot(small_shot, tmp_path / "out2")
-    assert executed(second) == set()
+    assert executed(second) == set() and second["segments"][0]["lane_agreement_db"] == agreement
     assert all(s["cached"] for s in second["stages"].values())
     np.testing.assert_array_equal(frames_of(tmp_path / "out2"), frames)
 
