@@ -9,7 +9,8 @@ import numpy as np
 
 from ops import preview
 from ops.appearance.lane import deform_lane, texture_lane
-from ops.evaluation.lane_checks import agreement, agreement_warning, character_shares, torn_shares, torn_warning
+from ops.blending.quality import inpainted_share
+from ops.evaluation.lane_checks import agreement, agreement_warning, torn_shares, torn_warning
 from ops.geometry.deform import count_flipped
 from ops.geometry.topology import Solver, optimize_topology
 from ops.segmentation.masks import build_masks
@@ -175,7 +176,7 @@ def _deformed(s: int, k: int):
         folds = [count_flipped(x, textured.template.faces) for x in seq.vertices]
         meta = {"frames": len(seq.times), "folded_triangles": folds, "energy_max": float(seq.energies.max()),
                 "iterations_total": int(seq.iterations.sum()),
-                "inpainted_share_max": float(character_shares(seq, seq.inpainted).max()),
+                "inpainted_share_max": float(inpainted_share(seq.inpainted, seq.images[..., 3]).max()),
                 "distorted_share_max": float(torn_shares(seq).max()), "registered": seq.fade is not None}
         warnings = [torn_warning(seq, shot.segment_poses(s), shot.key_pose(k), shot.skeleton, k)]
         if other is not None:  # the lane at the other key's pose against that key's drawing (docs/lanes.md)

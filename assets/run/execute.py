@@ -132,7 +132,7 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
             names = plan_stages(shot)
             repairs = stage_warnings(partition, names)
             segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend,
-                                        _lane_agreement(st, partition, shot, s))
+                                        _recorded_lane_agreement(st, partition, shot, s))
                         for s in range(shot.n_keys - 1)]
         stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
                       "warnings": repairs.get(n, 0)} for n in names}
@@ -157,7 +157,7 @@ def plan_stages(shot: Shot) -> tuple[str, ...]:
     return shot_graph(shot.n_keys).stages
 
 
-def _lane_agreement(st, partition: str, shot: Shot, s: int) -> dict[str, float | None]:
+def _recorded_lane_agreement(st, partition: str, shot: Shot, s: int) -> dict[str, float | None]:
     """{"key{k}->key{o}": dB} of segment s: each side's lane at the other key's pose against that key's drawing,
     as its deformed_frames stage recorded it (None where its record predates the measure)."""
     out = {}

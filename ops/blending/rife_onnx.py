@@ -263,7 +263,7 @@ class OnnxRife:
         number or per pixel (N, 1, H, W) (ops/blending/local_alpha.py). region: only its pixels, (N, 4, h, w),
         each as in the whole frame (a pixel's blend reads its own flow, mask and alpha alone)."""
         a0, a1 = np.asarray(a0, np.float32), np.asarray(a1, np.float32)
-        region = region or Box(0, a0.shape[2], 0, a0.shape[3])
+        region = Box(0, a0.shape[2], 0, a0.shape[3]) if region is None else region
         out = np.broadcast_to(PAPER, (*a0.shape[:2], region.y1 - region.y0, region.x1 - region.x0)).copy()
         # outside the box around both images' coverage and the flows every sample is transparent: paper
         box = coverage_box(np.concatenate((a0[:, 3], a1[:, 3], (flow != 0).any(1))), margin=2, grid=1)

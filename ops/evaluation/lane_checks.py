@@ -9,7 +9,7 @@ opening every preview.
   keyframe (overlapping legs, an arm lying along the body) are pulled apart by the motion. A little of it is a
   limb's own bend; when a large share of the visible character tears in one frame, the lane shows smeared
   webbing there and no blend can undo it. Across the 92 lanes of the 46 evaluated shots the worst frame tears
-  0-59 % of the character; the three above TORN_SHARE are the two thin side walks' key1 lanes (legs overlapping
+  0-57 % of the character; the three above TORN_SHARE are the two thin side walks' key1 lanes (legs overlapping
   at both keys, about 17 dB against the ground truth) and realdev rd03's key1 lane (its least lane agreement).
 - **Disagreement.** A lane deformed to the other key's pose should look like that key's drawing (lane
   agreement, docs/lanes.md). On the 46 evaluated shots it is 20.5-41 dB; below AGREE_DB are only the two thin
@@ -21,7 +21,9 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from ops.blending.quality import inpainted_share
 from ops.evaluation.metrics import psnr
+from ops.evaluation.plate import over
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import DeformedSequence, Masks, Skeleton
 from ops.warning_subject import about
@@ -33,35 +35,24 @@ HOT_SIGMA = 3.0  # px: the difference is blurred so that a misplaced part reads 
 HOT_SHARE = 0.5  # ... and the pixels within this share of its largest value are where it lies
 
 
-def _bone_ends(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
-    """(B, 2, 2) the bones' end points, pixels, at a (J, 3) pose."""
-    return np.stack([pose[skeleton.bones[:, 0], :2], pose[skeleton.bones[:, 1], :2]], axis=1)
-
-
 def _along(pixels: np.ndarray, pose: np.ndarray, own_pose: np.ndarray, skeleton: Skeleton
            ) -> tuple[str | tuple[str, ...], np.ndarray, bool]:
     """The bones (N, 2) pixels (x, y) at `pose` lie nearest to: (a name or several, their middle at own_pose, one)."""
-    nearest = bone_distance_stack(pixels.astype(np.float64), _bone_ends(pose, skeleton)).argmin(axis=0)
+    nearest = bone_distance_stack(pixels.astype(np.float64), pose[:, :2][skeleton.bones]).argmin(axis=0)
     counts = np.bincount(nearest, minlength=len(skeleton.bones))
     named = [int(b) for b in np.argsort(-counts, kind="stable") if counts[b] >= NAMED_SHARE * len(pixels)]
     named = named or [int(np.argmax(counts))]
     names = tuple(f"{skeleton.joints[skeleton.bones[b, 0]]}-{skeleton.joints[skeleton.bones[b, 1]]}" for b in named)
-    at = _bone_ends(own_pose, skeleton)[named].reshape(-1, 2).mean(axis=0)
+    at = own_pose[:, :2][skeleton.bones[named]].reshape(-1, 2).mean(axis=0)
     return (names[0] if len(names) == 1 else names), at, len(names) == 1
 
 
-def character_shares(seq: DeformedSequence, pixels: np.ndarray | None) -> np.ndarray:
-    """(T,) float64 share of each frame's visible character (alpha > 0.5) that the (T, H, W) bool pixels mark
-    (None: none)."""
-    if pixels is None:
-        return np.zeros(len(seq.times))
-    visible = np.maximum(1, (seq.images[..., 3] > 0.5).sum((1, 2)))
-    return pixels.sum((1, 2)) / visible
-
-
 def torn_shares(seq: DeformedSequence) -> np.ndarray:
-    """(T,) float64 share of each frame's visible character drawn from stretched faces."""
-    return character_shares(seq, seq.distorted)
+    """(T,) float64 share of each frame's visible character (its coverage) drawn from stretched faces, as q
+    counts shares (ops.blending.quality.inpainted_share)."""
+    if seq.distorted is None:
+        return np.zeros(len(seq.times))
+    return inpainted_share(seq.distorted, seq.images[..., 3])
 
 
 def torn_warning(seq: DeformedSequence, poses: np.ndarray, key_pose: np.ndarray, skeleton: Skeleton,
@@ -93,10 +84,9 @@ def torn_warning(seq: DeformedSequence, poses: np.ndarray, key_pose: np.ndarray,
 def agreement(at_other: np.ndarray, other: Masks) -> tuple[float, np.ndarray]:
     """(PSNR dB, (H, W) float64 per-pixel difference) of a lane's frame (H, W, 4) at the other key's pose against
     that key's drawing as its masks hold it (coverage, colour and paper: the drawing, unmixed), over its paper."""
-    cov = np.asarray(other.coverage, np.float64)[..., None]
+    cov = np.asarray(other.coverage, np.float32)[..., None]
     want = cov * other.colour + (1.0 - cov) * other.paper
-    a = np.clip(np.asarray(at_other[..., 3:], np.float64), 0.0, 1.0)
-    got = np.asarray(at_other[..., :3], np.float64) * a + (1.0 - a) * other.paper
+    got = over(at_other[None], other.paper)[0]
     return psnr(got, want), np.abs(got - want).mean(axis=-1)
 
 
