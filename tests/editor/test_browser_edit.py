@@ -76,8 +76,16 @@ def test_stage_warnings_show_at_what_they_name_with_their_fix(serve, small_shot,
     bubbles = page.locator(".keypane[data-k='1'] .bubble.warning")
     by_kind = {bubbles.nth(i).get_attribute("data-kind"): bubbles.nth(i) for i in range(3)}
     assert set(by_kind) == {"joint", "T-junction", "bones"}
-    assert "fix: give the joints different z" in by_kind["bones"].inner_text()
-    assert "fix: move it onto the drawing" in by_kind["joint"].inner_text()
+    # compact until the pointer is on the ring: then whole, with the fix
+    assert "fix:" not in by_kind["bones"].inner_text() and "bodies overlap" in by_kind["bones"].inner_text()
+    for kind, fix, (x, y) in (("bones", "fix: give the joints different z", (96, 150)),
+                              ("joint", "fix: move it onto the drawing", hand[:2])):
+        page.mouse.move(*screen(page, 1, x, y)[:2])
+        until(page, f"() => document.querySelector(\".keypane[data-k='1'] .bubble.warning[data-kind='{kind}']\")"
+                    ".classList.contains('open')", 5)
+        assert fix in by_kind[kind].inner_text()
+    page.mouse.move(5, 5)
+    assert page.locator(".keypane[data-k='1'] .bubble.warning.open").count() == 0
     assert by_kind["T-junction"].get_attribute("data-subject") == "tj:0"
     notes = page.locator(".keypane[data-k='1'] .notes")
     assert notes.is_visible() and "merged 2 duplicate" in notes.inner_text()
@@ -99,6 +107,51 @@ def test_stage_warnings_show_at_what_they_name_with_their_fix(serve, small_shot,
     page.screenshot(path=str(ARTIFACTS / "test_stage_warnings_shown.png"))
     page.click("#overlays input[data-overlay='warnings']")  # and they can be hidden
     assert page.locator(".bubble.warning").count() == 0
+
+
+def test_many_warnings_on_one_keyframe_stay_compact_apart_and_inside_until_one_is_pointed_at(
+        serve, small_shot, open_page):
+    s = serve(small_shot)
+    data = json.loads((small_shot / "shot.json").read_text())
+    joints = data["poses"][-1]["joints"]
+    # six bubbles whose rings crowd the figure's lower half (192 px): stacked downward they would run off the pane
+    points = [(joints[j][0], min(joints[j][1] + 40, 188)) for j in (0, 2, 5, 8, 11, 14)]
+    warnings = [about("bone", f"key1's lane tears here, case {i}: a long explanation of what the stage saw, of the "
+                      "part of the drawing involved and of why the motion pulls it apart", name=f"b{i}", at=p,
+                      fix=f"click the T-junctions of case {i}") for i, p in enumerate(points)]
+    s.state.store.write("seg0/key1/deformed_frames", s.state.partition, _Output(np.zeros(1)),
+                        provenance={"warnings": warnings})
+    page = open_page(s.url)
+    sel = ".keypane[data-k='1'] .bubble.warning"
+    until(page, f"() => document.querySelectorAll(\"{sel}\").length === 6", 20)
+    bubbles = page.locator(sel)
+    pane = page.locator(".keypane[data-k='1'] .bubbles").bounding_box()
+    boxes = [bubbles.nth(i).bounding_box() for i in range(6)]
+    for i, b in enumerate(boxes):
+        assert "fix:" not in bubbles.nth(i).inner_text()  # compact: no fix, two lines of the problem at most
+        assert b["height"] < 3 * 16 + 8, b
+        assert pane["x"] - 1 <= b["x"] and b["x"] + b["width"] <= pane["x"] + pane["width"] + 1
+        assert pane["y"] - 1 <= b["y"] and b["y"] + b["height"] <= pane["y"] + pane["height"] + 1, (b, pane)
+        for c in boxes[:i]:  # apart
+            assert (b["x"] >= c["x"] + c["width"] or c["x"] >= b["x"] + b["width"]
+                    or b["y"] >= c["y"] + c["height"] or c["y"] >= b["y"] + b["height"]), (b, c)
+    # the pointer on a ring opens that bubble whole, over the others; on its box it stays open; away, all compact
+    for i in (4, 1):
+        page.mouse.move(*screen(page, 1, *points[i])[:2])
+        until(page, f"() => document.querySelectorAll(\"{sel}.open\").length === 1", 5)
+        opened = page.locator(f"{sel}.open")
+        assert f"fix: click the T-junctions of case {i}" in opened.inner_text()
+        assert opened.evaluate("b => getComputedStyle(b).zIndex") == "1"
+        if i == 4:
+            ARTIFACTS.mkdir(exist_ok=True)
+            page.screenshot(path=str(ARTIFACTS / "test_a_crowded_keyframes_warning_opened.png"))
+        box = opened.bounding_box()
+        assert pane["y"] - 1 <= box["y"] and box["y"] + box["height"] <= pane["y"] + pane["height"] + 1
+        page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] - 3)
+        page.wait_for_timeout(100)
+        assert f"case {i}" in page.locator(f"{sel}.open").inner_text()
+    page.mouse.move(5, 5)
+    until(page, f"() => document.querySelectorAll(\"{sel}.open\").length === 0", 5)
 
 
 def test_after_a_reload_the_panel_says_stale_when_the_plan_has_stale_stages(serve, small_shot, open_page, home):

@@ -12,6 +12,7 @@ const PROP_R = 7;          // a proposal's hollow diamond (half its diagonal, sc
 const PROP_COLOUR = '#0a9bb5';
 const DRAG_PX = 4;         // a press that moves less than this is a click
 const WARN_COLOUR = '#f0a030';
+const WARN_RING_PX = 13;  // the pointer this near a warning's ring opens its bubble
 const Z_STEP = 0.1;        // depth change per wheel notch (Shift: x10)
 const round1 = (v) => Math.round(v * 10) / 10;
 
@@ -36,6 +37,7 @@ export class KeyView {
     this.drag = null;
     this.hover = null;
     this.pointer = null;   // last pointer position, image pixels (brush cursor)
+    this.openWarning = null;  // the warning bubble shown whole (stage + '\n' + text), the others compact
     this._listen();
   }
 
@@ -49,6 +51,7 @@ export class KeyView {
     this.pane.dataset.k = String(k);
     this.drag = null;
     this.hover = null;
+    this.openWarning = null;
     this.fitted = false;
   }
 
@@ -288,10 +291,16 @@ export class KeyView {
         ctx.arc(sx, sy, 11, 0, 2 * Math.PI);
         ctx.lineWidth = 2.5; ctx.strokeStyle = WARN_COLOUR; ctx.setLineDash(w.stale ? [3, 3] : []); ctx.stroke();
         ctx.setLineDash([]);
-        placed.push(this._bubble(sx, sy, `warning${w.stale ? ' stale' : ''}`,
+        // compact (what it is about and the problem, in two lines) so that several leave the drawing visible;
+        // the pointer on its ring or on the bubble opens it whole (the fix, the stage)
+        const id = `${w.stage}\n${w.text}`;
+        const b = this._bubble(sx, sy, `warning${w.stale ? ' stale' : ''}${id === this.openWarning ? ' open' : ''}`,
           [['subject', subjectLabel(w)], ['what', w.problem], ['fix', w.fix ? `fix: ${w.fix}` : ''],
             ['from', `${w.stage}${w.stale ? ' · before your last change' : ''}`]],
-          { stage: w.stage, kind: w.kind || '', subject: subject || '', at: `${at[0].toFixed(1)},${at[1].toFixed(1)}` }));
+          { stage: w.stage, kind: w.kind || '', subject: subject || '', at: `${at[0].toFixed(1)},${at[1].toFixed(1)}` });
+        b.ring = [sx, sy];
+        b.id_ = id;
+        placed.push(b);
       }
       this.notes.replaceChildren(...notes.map((w) => {
         const div = document.createElement('div');
@@ -316,7 +325,9 @@ export class KeyView {
         placed.push(this._bubble(sx, sy, 'error', [['what', err.message]], { field: err.field }));
       }
     }
-    // one under the other where they would overlap, in the order of their points from the top
+    // one under the other where they would overlap, in the order of their points from the top (an open one is
+    // placed at its compact size: opening it lays it over its neighbours, not them further down)
+    for (const b of placed) b.classList.toggle('measuring', b.classList.contains('open'));
     placed.sort((a, b) => parseFloat(a.style.top) - parseFloat(b.style.top));
     const taken = [];
     for (const b of placed) {
@@ -332,6 +343,54 @@ export class KeyView {
       }
       taken.push(b.getBoundingClientRect());
     }
+    // a stack that runs past the pane's foot moves up, the lowest first, each above the one below it
+    let floor = this.bubbles.getBoundingClientRect().bottom - 4;
+    for (const b of [...placed].reverse()) {
+      const r = b.getBoundingClientRect();
+      if (r.bottom > floor) b.style.top = `${parseFloat(b.style.top) - (r.bottom - floor)}px`;
+      floor = Math.min(floor, b.getBoundingClientRect().top - 4);
+    }
+    for (const b of placed) b.classList.remove('measuring');
+    this._keepOpenInside();
+    // a bubble stacked away from its ring is tied to it by a thin line to the tip of its arrow
+    const c = this.canvas.getBoundingClientRect();
+    for (const b of placed) {
+      if (!b.ring) continue;
+      const r = b.getBoundingClientRect();
+      const tip = [(b.classList.contains('left') ? r.right + 7 : r.left - 7) - c.left, (r.top + r.bottom) / 2 - c.top];
+      if (Math.hypot(tip[0] - b.ring[0], tip[1] - b.ring[1]) < 20) continue;
+      ctx.beginPath();
+      ctx.moveTo(...b.ring);
+      ctx.lineTo(...tip);
+      ctx.lineWidth = 1; ctx.strokeStyle = WARN_COLOUR; ctx.setLineDash(b.classList.contains('stale') ? [3, 3] : []);
+      ctx.stroke();
+      ctx.setLineDash([]);
+    }
+  }
+
+  /** Open the warning bubble whose ring or box is under screen point (sx, sy) of the canvas (none there: close it);
+   *  redraws when that changes. */
+  _openWarningAt(sx, sy) {
+    const c = this.canvas.getBoundingClientRect();
+    let id = null;
+    for (const b of this.bubbles.querySelectorAll('.bubble.warning')) {
+      const r = b.getBoundingClientRect();
+      const onBox = sx + c.left >= r.left && sx + c.left <= r.right && sy + c.top >= r.top && sy + c.top <= r.bottom;
+      if (onBox || (b.ring && Math.hypot(b.ring[0] - sx, b.ring[1] - sy) <= WARN_RING_PX)) id = b.id_;
+      if (id === b.id_ && b.classList.contains('open')) break;  // the open one keeps the pointer over its box
+    }
+    if (id === this.openWarning) return;
+    this.openWarning = id;
+    this.draw();  // the bubbles again, that one open (and its line to its ring where it moved)
+  }
+
+  /** The open warning bubble, taller than its compact self, moved inside the pane. */
+  _keepOpenInside() {
+    const b = this.bubbles.querySelector('.bubble.warning.open');
+    if (!b) return;
+    const pane = this.bubbles.getBoundingClientRect(), r = b.getBoundingClientRect();
+    const shift = r.bottom > pane.bottom - 4 ? pane.bottom - 4 - r.bottom : r.top < pane.top + 4 ? pane.top + 4 - r.top : 0;
+    if (shift) b.style.top = `${parseFloat(b.style.top) + shift}px`;
   }
 
   // ---------------------------------------------------------------- picking
@@ -363,7 +422,7 @@ export class KeyView {
     c.addEventListener('pointermove', (e) => this._move(e));
     c.addEventListener('pointerup', (e) => this._up(e));
     c.addEventListener('pointercancel', (e) => this._up(e));
-    c.addEventListener('pointerleave', () => { this.pointer = null; this.hover = null; this.draw(); });
+    c.addEventListener('pointerleave', () => { this.pointer = null; this.hover = null; this.openWarning = null; this.draw(); });
     c.addEventListener('wheel', (e) => this._wheel(e), { passive: false });
     c.addEventListener('contextmenu', (e) => e.preventDefault());
     c.addEventListener('dblclick', () => this.fit());
@@ -439,6 +498,7 @@ export class KeyView {
     this.pointer = [x, y];
     const d = this.drag;
     if (!d) {
+      this._openWarningAt(sx, sy);
       const hover = this._pick(sx, sy);
       if (JSON.stringify(hover) !== JSON.stringify(this.hover)) this.hover = hover;
       this.canvas.style.cursor = hover && hover.kind === 'prop' ? 'pointer'
