@@ -40,8 +40,13 @@ def _bone_name(skeleton: Skeleton, b: int) -> str:
     return f"{skeleton.joints[p]}-{skeleton.joints[c]}"
 
 
-def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton) -> tuple[list, list[str]]:
-    """Overlaps of non-adjacent bones' (B, H, W) thick regions: list of (front, back, (H, W) bool), warnings."""
+def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton, min_px: float = 0.0
+                   ) -> tuple[list, list[str]]:
+    """Overlaps of non-adjacent bones' (B, H, W) thick regions: list of (front, back, (H, W) bool), warnings.
+
+    An overlap of two bones at equal depth is a warning only from min_px pixels on: a smaller one would have been
+    dropped as noise had the bones had an order (the few pixels where a hip bone and the spine, joined through a
+    bone of no length, meet round their shared joint)."""
     out, warnings = [], []
     adjacent = skeleton.adjacent_bones()
     nb = thick.shape[0]
@@ -58,6 +63,8 @@ def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton) -> 
             if not overlap.any():
                 continue
             if np.isclose(depth[i], depth[j]):
+                if overlap.sum() < min_px:
+                    continue
                 warnings.append(about(
                     "bones", f"bodies overlap on {int(overlap.sum())} px but the bones have equal depth, so no "
                     "occlusion was predicted there", name=(_bone_name(skeleton, i), _bone_name(skeleton, j)),
@@ -101,12 +108,12 @@ def predict_occlusion(
     thick = thick_regions(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
     adjacent = skeleton.adjacent_bones()
-    pairs, warnings = _pair_overlaps(thick, depth, skeleton)
+    min_area = MIN_REGION_FRACTION * max(int(foreground.sum()), 1)
+    pairs, warnings = _pair_overlaps(thick, depth, skeleton, min_area)
     union = np.zeros_like(foreground, dtype=bool)
     for _, _, overlap in pairs:
         union |= overlap
     labels, n = ndimage.label(union, structure=np.ones((3, 3), bool))
-    min_area = MIN_REGION_FRACTION * max(int(foreground.sum()), 1)
     regions, fronts, keys, dropped = [], [], [], 0
     for lab in range(1, n + 1):
         region = labels == lab

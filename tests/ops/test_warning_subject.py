@@ -86,3 +86,6 @@ def test_equal_depth_overlap_is_one_warning_per_pair_at_the_overlap():
     s = parse(warnings[0])
     assert s.kind == "bones" and s.names == ("a-b", "c-d") and s.fix.startswith("give the joints different z")
     assert s.at == (12.0, 12.0) and "equal depth" in s.problem
+    # an overlap smaller than a region the prediction keeps (25 px here) is noise, not a warning
+    assert _pair_overlaps(thick, np.zeros(3), sk, min_px=26)[1] == []
+    assert len(_pair_overlaps(thick, np.zeros(3), sk, min_px=25)[1]) == 1
