@@ -12,7 +12,7 @@ from ops.appearance.render import Renderer, depth_order, rasterize_ids
 from ops.appearance.texture import texture_template
 from ops.appearance.weights import depth_weights
 from ops.geometry.deform import Deformer, deform_sequence
-from ops.geometry.register import FINE_PASSES, PASSES, Registration, fade_in, flow_targets, gray_over_white, register
+from ops.geometry.register import PASSES, Registration, fade_in, flow_targets, gray_over_white, register
 from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedTemplate
 
 
@@ -72,8 +72,7 @@ def register_toward(renderer: Renderer, X: np.ndarray, pose: np.ndarray, other: 
     onto that key's drawing: its rendering and the drawing's colour under its coverage, both over white.
 
     Each pass renders the mesh where the last one left it and follows the flow from there (the flow of a
-    stroke a few pixels off is found in full only once the stroke is near); the last FINE_PASSES follow it at
-    full resolution (ops.geometry.register)."""
+    stroke a few pixels off is found in full only once the stroke is near)."""
     textured = renderer.textured
     faces = textured.template.faces
     shape = other.coverage.shape
@@ -81,12 +80,12 @@ def register_toward(renderer: Renderer, X: np.ndarray, pose: np.ndarray, other: 
     size_px = float(np.sqrt(max(other.coverage.sum(), 1.0)))
     order = depth_order(textured, pose, renderer.groups)
     Y, iterations, reg = X, 0, None
-    for p in range(passes):
+    for _ in range(passes):
         rgba, _, _ = renderer.frame(Y, pose, shape, supersample)
         ids = rasterize_ids(Y, faces, order, shape, 1)
         visible = np.zeros(len(X), bool)
         visible[faces[np.unique(ids[ids >= 0])].ravel()] = True
-        flow, trust = flow_targets(Y, gray_over_white(rgba), drawing, visible, size_px, p >= passes - FINE_PASSES)
+        flow, trust = flow_targets(Y, gray_over_white(rgba), drawing, visible, size_px)
         reg = register(X, faces, flow, trust, start=Y)
         Y, iterations = X + reg.displacement, iterations + reg.iterations
     reg.iterations = iterations

@@ -9,8 +9,7 @@ per-vertex displacement D (V, 2) px by minimizing
     E(Y) = SD(Y; rest X) + stiffness * sum_v c_v m_v |Y_v - (X_v + flow(X_v))|^2
 
 from Y = X with the injective deformer (ops.geometry.deform: no iterate folds a triangle), in a few passes
-(render where the last pass left the mesh, flow again, solve on; the last FINE_PASSES with the flow at full
-resolution). The distortion is measured against the
+(render where the last pass left the mesh, flow again, solve on). The distortion is measured against the
 deformed mesh X itself, so where the rendering already agrees (flow 0) D stays 0; c_v is the flow's trust
 (consistent, on a visible vertex, short), m_v the lumped vertex areas (sum 1, so the weight does not depend on
 the mesh's resolution).
@@ -36,13 +35,6 @@ from ops.geometry.mesh import signed_areas
 STIFFNESS = 1e6
 GRAD_TOL = 1e-3  # normalized gradient norm; 1e-2 stops after 3-5 iterations, 0.5 dB short
 PASSES = 5  # render, flow, solve; a stroke a few pixels off is found in full only once it is near (3: -0.3 dB)
-# the last passes' flow at full resolution: DIS's MEDIUM preset stops at half resolution, where a stroke 1-2 px
-# wide is half a pixel and the flow falls short of it (each pass closed about half of what was left); run at
-# half resolution first, it finds the strokes a few pixels off without the paper grain and texture a
-# full-resolution flow also follows from the start (docs/lanes.md: lane agreement +1.13 dB on the samples'
-# lanes, +0.47 held-out, +0.78 redrawn, +0.15 realdev; full resolution from the first pass lost up to 4 dB on
-# some held-out lanes)
-FINE_PASSES = 2
 CONSISTENCY_PX = 1.5  # forward-backward flow error at which a vertex's trust falls to 1/e
 MAX_SHIFT = 0.15  # flows longer than this share of the character's size are not trusted (not a local change)
 FLOW_BLUR = 1.5  # Gaussian sigma, px, of both images before the flow: 1-2 px wide strokes overlap again (+0.5 dB)
@@ -66,12 +58,9 @@ def gray_over_white(rgba: np.ndarray) -> np.ndarray:
     return np.clip(lum * 255.0 + 0.5, 0, 255).astype(np.uint8)
 
 
-def dense_flow(src: np.ndarray, dst: np.ndarray, fine: bool = False) -> np.ndarray:
-    """(H, W, 2) float32 DIS flow f with src(x) ~ dst(x + f(x)), both (H, W) uint8, after a FLOW_BLUR blur;
-    fine: down to full resolution (the preset's finest scale is half resolution)."""
+def dense_flow(src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+    """(H, W, 2) float32 DIS flow f with src(x) ~ dst(x + f(x)), both (H, W) uint8, after a FLOW_BLUR blur."""
     dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)  # FAST: 1.3 dB less on seq_arm_cross
-    if fine:
-        dis.setFinestScale(0)
     src, dst = cv2.GaussianBlur(src, (0, 0), FLOW_BLUR), cv2.GaussianBlur(dst, (0, 0), FLOW_BLUR)
     return dis.calc(np.ascontiguousarray(src), np.ascontiguousarray(dst), None)
 
@@ -92,13 +81,13 @@ def vertex_mass(X: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def flow_targets(X: np.ndarray, rendered: np.ndarray, drawing: np.ndarray, visible: np.ndarray,
-                 size_px: float, fine: bool = False) -> tuple[np.ndarray, np.ndarray]:
+                 size_px: float) -> tuple[np.ndarray, np.ndarray]:
     """(flow at each vertex (V, 2) px, trust (V,) in [0, 1]) from the rendering to the drawing (H, W) uint8.
 
     visible: (V,) bool vertices of faces drawn on top (a hidden vertex sees another layer's motion); size_px:
-    the character's size, which bounds a trusted flow (MAX_SHIFT); fine: the flow at full resolution."""
-    fwd = dense_flow(rendered, drawing, fine)
-    bwd = dense_flow(drawing, rendered, fine)
+    the character's size, which bounds a trusted flow (MAX_SHIFT)."""
+    fwd = dense_flow(rendered, drawing)
+    bwd = dense_flow(drawing, rendered)
     f = sample(fwd, X)
     back = sample(bwd, X + f)
     err = np.linalg.norm(f + back, axis=1)
@@ -145,15 +134,6 @@ def vertex_rotations(X_from: np.ndarray, X_to: np.ndarray, faces: np.ndarray) ->
     return np.arctan2(vs, vc)
 
 
-KEEP_AREA = 0.1  # a frame moved by its whole share of the displacement keeps every face above this share of its area
-
-
-def _keeps_faces(X: np.ndarray, Y: np.ndarray, faces: np.ndarray) -> bool:
-    """Whether mesh Y (V, 2) keeps every face of X (V, 2) unfolded and above KEEP_AREA of its area there."""
-    a, b = signed_areas(X, faces), signed_areas(Y, faces)
-    return bool((b > KEEP_AREA * a).all())
-
-
 def fade_in(frames: np.ndarray, displacement: np.ndarray, progress: np.ndarray, end: int, faces: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray]:
     """frames (T, V, 2) px moved by the displacement (V, 2) px of frame `end`, eased in along progress (T,)
@@ -169,7 +149,7 @@ def fade_in(frames: np.ndarray, displacement: np.ndarray, progress: np.ndarray, 
         c, s = np.cos(turn)[:, None], np.sin(turn)[:, None]
         Di = w[i] * np.concatenate([c * displacement[:, :1] - s * displacement[:, 1:],
                                     s * displacement[:, :1] + c * displacement[:, 1:]], axis=1)
-        step = 1.0 if _keeps_faces(out[i], out[i] + Di, faces) else max_injective_step(out[i], Di, faces)
+        step = max_injective_step(out[i], Di, faces)
         out[i] = out[i] + step * Di
         applied[i] = w[i] * step
     return out, applied
