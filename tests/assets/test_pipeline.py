@@ -47,6 +47,14 @@ def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, 
     agreement = report["segments"][0]["lane_agreement_db"]
     assert set(agreement) == {"key0->key1", "key1->key0"} and all(20 < v < 60 for v in agreement.values())
     assert "lane_agreement_db" not in report["path"]
+    # a side stage recomputed alone from the stored parents (benchmarks/bench_lanes.py) is what the run stored
+    from benchmarks.bench_pipeline import compute_alone
+    from resources.store import Store
+
+    alone, _ = compute_alone(home, small_shot, "seg0/key1/deformed_frames")
+    assert alone.metadata["agreement_db"] == agreement["key1->key0"]
+    stored = Store(home / "storage").read("seg0/key1/deformed_frames", "arm_cross")
+    np.testing.assert_array_equal(alone.value.images, stored.images)
     # the output's first and last frames are the keyframes (issue 8: >= 40 dB composited over white)
     from ops.evaluation.metrics import psnr
     from ops.shotio.image_io import read_image
