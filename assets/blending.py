@@ -10,7 +10,7 @@ import numpy as np
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
 from ops.blending.image_matrix import alpha_grid, network_calls_bound
-from ops.blending.local_alpha import local_frames, local_texture_quality
+from ops.blending.local_alpha import local_frames
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import (
@@ -77,7 +77,7 @@ def _matrix(env: StageEnv, s: int) -> StageResult:
     """
     seq0, seq1 = _sides(env, s)
     st = env.settings
-    _, _, q, weight = _quality_inputs(seq0, seq1, alpha_grid(st.alpha_depth), st.local_alpha)
+    _, _, q, weight = quality_inputs(seq0, seq1, alpha_grid(st.alpha_depth))
     rife = _CountedRife(env.resource("rife").load(), env.partition, f"seg{s}/rife_matrix",
                         network_calls_bound(len(seq0.times), st.alpha_depth, st.matrix_cells))
     matrix = path_matrix(seq0, seq1, q, weight, rife, st.alpha_depth, st.epsilon, st.blend, env.resource("rife").batch,
@@ -87,15 +87,6 @@ def _matrix(env: StageEnv, s: int) -> StageResult:
             "cells_computed": int(matrix.computed.sum()), "cells": st.matrix_cells,
             "device": env.resource("rife").device}
     return StageResult(matrix, meta, preview.frame_strip(mid))
-
-
-def _quality_inputs(seq0, seq1, alphas: np.ndarray, strength: float):
-    """quality_inputs, with q of the frames the per-pixel alpha of `strength` makes (the frames stage's: 0 for
-    one alpha per frame) rather than of one alpha per frame: both the matrix's cells and the path read it."""
-    share0, share1, q, weight = quality_inputs(seq0, seq1, alphas)
-    if strength > 0:
-        q = local_texture_quality(seq0, seq1, alphas, strength)
-    return share0, share1, q, weight
 
 
 def _quality(s: int):
@@ -110,7 +101,7 @@ def _quality(s: int):
 def _quality_of(env: StageEnv, s: int) -> StageResult:
     matrix: ImageMatrix = env.read(f"seg{s}/rife_matrix")
     seq0, seq1 = _sides(env, s)
-    share0, share1, q, weight = _quality_inputs(seq0, seq1, matrix.alphas, env.settings.local_alpha)
+    share0, share1, q, weight = quality_inputs(seq0, seq1, matrix.alphas)
     Q = interpolation_quality(matrix.flows, weight)
     table = quality_table(matrix.times, matrix.alphas, q, Q)
     meta = {"Q_max": float(Q.max()), "Q_mean": float(Q.mean()), "q_max": float(q.max()),

@@ -37,29 +37,6 @@ def local_alpha(alpha: float, unreliable0: np.ndarray, unreliable1: np.ndarray, 
     return np.clip(np.float32(alpha) + np.float32(strength) * (u0 - u1), 0.0, 1.0).astype(np.float32)
 
 
-def local_texture_quality(seq0: DeformedSequence, seq1: DeformedSequence, alphas: np.ndarray, strength: float,
-                          sigma: float = SIGMA) -> np.ndarray:
-    """(T, A) q(t, alpha) of the frame the per-pixel alpha makes at each alpha (A,): the share of its character
-    whose texture is unreliable, sum_x (1 - a(x)) c0 u0 / C0 + a(x) c1 u1 / C1, a(x) = local_alpha(alpha, ..),
-    u the lanes' unreliable pixels, c their coverage and C its sum per frame. With a(x) = alpha everywhere
-    (strength 0) it is the paper's (1 - alpha) s0 + alpha s1 (ops.blending.quality.texture_quality); with the
-    per-pixel alpha, texture one lane has unreliable where the other's is good costs little, as the frame takes
-    it from the other lane there."""
-    u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
-    c0, c1 = (np.asarray(s.images[..., 3], np.float64) for s in (seq0, seq1))
-    alphas = np.asarray(alphas, np.float64)
-    q = np.zeros((len(u0), len(alphas)))
-    for t in range(len(u0)):
-        w0 = np.where(u0[t], c0[t], 0.0) / max(float(c0[t].sum()), 1e-12)  # each pixel's share of s0, s1
-        w1 = np.where(u1[t], c1[t], 0.0) / max(float(c1[t].sum()), 1e-12)
-        if not (w0.any() or w1.any()):
-            continue
-        for j, alpha in enumerate(alphas):
-            a = local_alpha(float(alpha), u0[t], u1[t], strength, sigma).astype(np.float64)
-            q[t, j] = float(((1.0 - a) * w0 + a * w1).sum())
-    return q
-
-
 def local_frames(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSequence, matrix: ImageMatrix,
                  alphas: np.ndarray, strength: float) -> tuple[np.ndarray, np.ndarray]:
     """The path's frames (T, H, W, 4) with every interior frame blended at its per-pixel alpha from its row's
