@@ -23,15 +23,13 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from assets.graph import side  # noqa: E402
+from assets.run.execute import _recorded_lane_agreement  # noqa: E402
 from benchmarks.bench_pipeline import compute_alone  # noqa: E402
+from ops.shotio.load import load_shot  # noqa: E402
 from resources.store import Store  # noqa: E402
 
 BAR_DB = 25.0  # issue 27's lane agreement
-
-
-def side_stages(storage: Path, partition: str) -> list[str]:
-    """The shot's stored side stages that render a lane (seg{s}/key{k}/deformed_frames), in order."""
-    return sorted(str(d.relative_to(storage / partition)) for d in (storage / partition).glob("seg*/key*/deformed_frames"))
 
 
 def main() -> None:
@@ -40,36 +38,39 @@ def main() -> None:
     ap.add_argument("shots", type=Path, help="the folder of the shots it ran")
     ap.add_argument("--only", nargs="*", default=None, help="shots whose name contains one of these")
     args = ap.parse_args()
-    storage = args.home / "storage"
-    store = Store(storage)
-    shots = sorted(p.name for p in storage.iterdir() if p.is_dir() and (args.shots / p.name / "shot.json").exists())
-    shots = [s for s in shots if not args.only or any(o in s for o in args.only)]
+    store = Store(args.home / "storage")
     print(f"{'shot':44s} {'lane':26s} {'stored':>7s} {'now':>7s} {'change':>7s} {'weight':>6s} {'cpu s':>6s}")
     stored: dict[str, list[float]] = {}  # per shot, its lanes' recorded agreement (nan: a run that kept none)
     now: dict[str, list[float]] = {}
-    for shot in shots:
-        for name in side_stages(storage, shot):
-            recorded = store.provenance(name, shot)[1] or {}
-            before = (recorded.get("metrics") or {}).get("agreement_db")
-            result, cpu = compute_alone(args.home, args.shots / shot, name)
-            after = result.metadata.get("agreement_db")
-            if after is None:  # one drawing: no other key
-                continue
-            before = float("nan") if before is None else float(before)
-            stored.setdefault(shot, []).append(before)
-            now.setdefault(shot, []).append(after)
-            weight = result.metadata.get("registration_weight_at_other_key", float("nan"))
-            print(f"{shot[:44]:44s} {name:26s} {before:7.2f} {after:7.2f} {after - before:+7.2f} {weight:6.3f} "
-                  f"{cpu:6.2f}", flush=True)
+    for folder in sorted(p for p in args.shots.iterdir() if (p / "shot.json").exists()):
+        if args.only and not any(o in folder.name for o in args.only):
+            continue
+        shot = load_shot(folder)
+        for s in range(shot.n_segments if shot.n_keys > 1 else 0):  # one drawing: no other key to agree with
+            recorded = _recorded_lane_agreement(store, folder.name, shot, s)
+            for k in shot.segment_keys(s):
+                name = side(s, k, "deformed_frames")
+                if store.hash(name, folder.name) is None:  # not run in this home
+                    continue
+                o = [j for j in shot.segment_keys(s) if j != k][0]
+                before = recorded[f"key{k}->key{o}"]
+                before = float("nan") if before is None else float(before)
+                result, cpu = compute_alone(args.home, folder, name)
+                after = result.metadata["agreement_db"]
+                stored.setdefault(folder.name, []).append(before)
+                now.setdefault(folder.name, []).append(after)
+                weight = result.metadata.get("registration_weight_at_other_key", float("nan"))
+                print(f"{folder.name[:44]:44s} {name:26s} {before:7.2f} {after:7.2f} {after - before:+7.2f} "
+                      f"{weight:6.3f} {cpu:6.2f}", flush=True)
     if not now:
-        sys.exit(f"{storage}: no stored lane of a two-key shot in {args.shots}")
+        sys.exit(f"{args.home / 'storage'}: no stored lane of a two-key shot in {args.shots}")
     changes = np.array([a - b for s in now for a, b in zip(now[s], stored[s])])
     lanes = sum(len(v) for v in now.values())
     if np.isfinite(changes).any():
         print(f"\n{lanes} lanes, mean change {np.nanmean(changes):+.3f} dB, least {np.nanmin(changes):+.2f} "
               f"({int(np.isfinite(changes).sum())} with a recorded agreement)")
-    lower_now = {s: min(v) for s, v in now.items()}
-    lower_stored = {s: min(v) for s, v in stored.items()}  # nan where a lane kept none
+    lower_now = {s: float(np.min(v)) for s, v in now.items()}
+    lower_stored = {s: float(np.min(v)) for s, v in stored.items()}  # nan where a lane kept none
     print(f"shots whose lower lane reaches {BAR_DB:g} dB: {sum(v >= BAR_DB for v in lower_now.values())} now, "
           f"{sum(v >= BAR_DB for v in lower_stored.values())} recorded, of {len(now)}")
     for s in now:
