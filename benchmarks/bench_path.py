@@ -11,6 +11,11 @@ mean PSNR of the interior frames along each weight's path, along the diagonal (a
 best cell at each t, which no path knows), and the RIFE calls each path needs (its cells and their bisection's
 parents). The weight was chosen on the samples' rows alone; shots named h00_... (held-out set), r00_...
 (held-out redrawn set) and rd00_... (realdev) are reported beside them. --cache keeps the scored cells, so a rerun with other weights is quick.
+
+The cells the run did not blend are made as the run makes them (scaled from the row's alpha-1/2 flows where its
+matrix kept the masks). With --local-alpha S > 0 (the run's Settings.local_alpha by default) each cell is scored
+as the frame the per-pixel alpha of strength S makes of it (ops.blending.local_alpha: what the run outputs at that
+cell), and each weight's path is found twice: from the run's q, and from the q of those per-pixel frames.
 """
 from __future__ import annotations
 
