@@ -103,6 +103,20 @@ def test_paper_enclosed_by_an_arm_is_a_hole():
     assert fg.mask[ndimage.binary_erosion(body, iterations=1)].all()  # the hollow arm and torso stay character
 
 
+def test_a_bone_along_the_arms_inner_stroke_grazes_the_hole_without_opening_it():
+    """Joints clicked on a thin arm's inner outline (the side facing the loop) put its bones within a capsule's
+    width of the enclosed paper: the paper is still background seen through the loop (a raised forearm beside the
+    face, realdev rd03), while a bone whose line runs through the paper makes it a limb's inside."""
+    drawing, pose, skeleton, _, enclosed = hand_on_hip()
+    towards_loop = np.array([[-0.654, 0.756], [-1.0, 0.0], [-0.652, -0.758]])  # shoulder, elbow, hand
+    core = ndimage.distance_transform_edt(enclosed) > 6
+    for offset, hole in ((12.0, True), (16.0, False)):  # the arm's centre to its inner stroke: 9 px
+        moved = pose.copy()
+        moved[2:, :2] += offset * towards_loop
+        fg = segment_foreground(drawing, moved, skeleton)
+        assert (fg.n_holes == 1 and fg.holes[core].all()) if hole else fg.n_holes == 0, offset
+
+
 def test_lamp_arms_and_base_enclose_a_hole():
     """Solid strokes, bones along them: the triangle of paper between the arms and the base is background."""
     shape = (180, 180)
