@@ -41,8 +41,8 @@ CLOSE_SHARE = 0.008  # closing radius as a share of the image's long side: seals
 BROKEN_SCALE = 4  # an inside a bone crosses is sealed across gaps this many times the closing radius
 MIDDLE_SHARE = 0.5  # ... when the bone reaches this share of the inside's greatest depth (runs through its middle)
 BONE_TOUCH_PX = 2.0  # a component a bone passes within this distance of is touched by it
-CROSS_PX = 0.5  # a paper piece a bone's line (this thick) runs through is the inside of a limb, not a hole:
-#                 one the line passes within BONE_TOUCH_PX of only grazes it (a raised forearm beside the face)
+CROSS_PX = 0.5  # a paper piece a bone's line (this thick) runs through is the inside of a limb, not a hole; one
+#                 it passes within BONE_TOUCH_PX of is unless wide (holes.find_holes: a forearm beside the face)
 WALL_SCALE, WALL_MARGIN_PX = 2.0, 4.0  # ink within WALL_SCALE x body radius + margin of a bone belongs to that body part
 MARGIN_PX = 2  # the mask reaches this far past the ink: the 2-px Douglas-Peucker mesh boundary keeps the soft edge
 TRANSPARENT_SHARE = 0.01  # RGBA with more than this share of pixels not fully opaque is a cut-out
@@ -287,7 +287,7 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
         warnings.append(f"kept {kept} stroke(s) that no bone touches but that lie within a body's reach "
                         "of one (an outline drawn in separate strokes); check the foreground preview")
     crossed = bone_capsules(shape, pose, skeleton, CROSS_PX)
-    holes = find_holes(silhouette, sealed, crossed, near, points, reach[owner], min_radius=r)
+    holes = find_holes(silhouette, sealed, crossed, near, points, reach[owner], min_radius=r, grazed=touch)
     solid = silhouette & ~holes
 
     mask = past_margin(solid)

@@ -24,6 +24,7 @@ from scipy.spatial import cKDTree
 FOUR = ndimage.generate_binary_structure(2, 1)
 EIGHT = np.ones((3, 3), bool)
 MAX_GAP_DEG = 120.0  # widest gap of directions, seen from a hole, not covered by a nearby bone
+WIDE_HOLE = 2.0  # a piece holding a disc this many times min_radius wide is no sliver of a body's inside
 
 
 def widest_gap(centre: np.ndarray, points: np.ndarray) -> float:
@@ -54,11 +55,14 @@ def surrounded(piece: np.ndarray, bone_points: np.ndarray, bone_reach: np.ndarra
 
 def find_holes(
     silhouette: np.ndarray, ink: np.ndarray, crossed: np.ndarray, near_bones: np.ndarray,
-    bone_points: np.ndarray, bone_reach: np.ndarray, min_radius: float,
+    bone_points: np.ndarray, bone_reach: np.ndarray, min_radius: float, grazed: np.ndarray | None = None,
 ) -> np.ndarray:
     """(H, W) bool holes inside a (H, W) bool filled silhouette.
 
-    ink: (H, W) bool ink (gaps closed); crossed: (H, W) bool pixels on a bone (thin); near_bones: (H, W) bool
+    ink: (H, W) bool ink (gaps closed); crossed: (H, W) bool pixels on a bone's line (thin); grazed: (H, W) bool
+    pixels a bone passes within a stroke's width of (a piece narrower than WIDE_HOLE times min_radius that a bone
+    grazes is the inside of that bone's body: paper between a waistband's two strokes; a wider one is background
+    seen through a loop, which a forearm drawn thin beside the face passes at its rim); near_bones: (H, W) bool
     pixels close enough to a bone for its ink to belong to that body part; bone_points (n, 2) float64 and
     bone_reach (n,) float64: samples along the bones and how far each one's body reaches, pixels;
     min_radius: pixels, the radius of the largest disc a hole must hold.
@@ -86,6 +90,10 @@ def find_holes(
     depth = cv2.distanceTransform(candidates.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
     inscribed = np.zeros(m + 1, np.float32)
     np.maximum.at(inscribed, pieces[candidates], depth[candidates])
+    if grazed is not None:  # a narrow piece a bone grazes is that body's inside
+        touched = np.zeros(m + 1, bool)
+        touched[np.unique(pieces[grazed & candidates])] = True
+        inscribed[touched & (inscribed < WIDE_HOLE * min_radius)] = 0.0
     keep = np.zeros(m + 1, bool)
     for i in np.nonzero(inscribed >= min_radius)[0]:
         keep[i] = surrounded(pieces == i, bone_points, bone_reach)
