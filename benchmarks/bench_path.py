@@ -77,11 +77,10 @@ def score_cells(store, shot, partition: str, rife, strength: float) -> dict[str,
     T, A = matrix.computed.shape
     # every cell wanted, in one pass, made as the run makes them (scaled or bisected); the cells it blended are kept
     scaled = matrix.masks is not None
-    cells = "scaled" if scaled else "bisection"
+    kind = "scaled" if scaled else "bisection"
     matrix = build_image_matrix(seqs[0].images, seqs[1].images, matrix.times, rife, depth=int(round(np.log2(A - 1))),
-                                out=np.array(matrix.frames, cell_dtype(cells)), flows_out=np.array(matrix.flows, np.float32),
-                                wanted=lambda flows: np.ones((T, A), bool), computed=matrix.computed,
-                                cells=cells,
+                                out=np.array(matrix.frames, cell_dtype(kind)), flows_out=np.array(matrix.flows, np.float32),
+                                wanted=lambda flows: np.ones((T, A), bool), computed=matrix.computed, cells=kind,
                                 masks_out=np.array(matrix.masks, np.float32) if scaled else None)
     masks = [store.read(f"key{k}/masks", partition) for k in (0, 1)]
     plate = paper_plate([to_rgba(read_image(p)) for p in shot.keyframes], [m.coverage for m in masks],
@@ -173,6 +172,7 @@ def report(cells: dict[str, dict[str, np.ndarray]], weights: list[float], q_name
             m = v.mean(axis=0)
             print(f"{f'{g} mean (n={len(v)})':44s} " + " ".join(f"{x:8.3f}" for x in m[:len(head)]) + " | " +
                   " ".join(f"{x:6.1f}" for x in m[len(head):]))
+
 
 if __name__ == "__main__":
     main()

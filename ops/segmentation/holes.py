@@ -4,6 +4,8 @@ A region of paper colour enclosed by the character is either part of it (a white
 inside of an outlined limb, an eye, an ear) or background seen through a loop of the body (the space
 between a hand on the hip and the torso, a curled tail). The skeleton tells them apart:
 - a bone crosses the inside of a limb or a shirt, never the background;
+  a bone drawn along a thin limb's stroke may pass within a stroke's width of the background beside it
+  without crossing it: that grazes only a narrow piece into the body (paper between a waistband's strokes);
 - a hole lies between body parts, so the skeleton surrounds it: seen from the hole, the nearby bones
   leave no wide gap of directions; a hand's or a foot's outlined inside, or a compartment of a skirt,
   has bones on one side only;
