@@ -141,9 +141,7 @@ def _textured(s: int, k: int):
         keyframe where it shows them; unseen parts inpainted (§5.1)."""
         shot, st = env.shot, env.settings
         others = [o for o in shot.segment_keys(s) if o != k]
-        # what the other key shows, from its masks: they do not read its T-junctions, so a click there leaves this
-        # lane's texture cached (its registration reads the same masks)
-        other = env.read(f"key{others[0]}/masks") if others else None
+        other = env.read(f"key{others[0]}/refined_masks") if others else None
         other_pose = shot.key_pose(others[0]) if others else None
         template: Template = env.read(f"key{k}/template")
         # the cut search's solution at the other key's pose (its targets are the neighbouring keys', in order)

@@ -7,7 +7,7 @@ on both sides). Per segment s, between keys a = s and b = s + 1, each key's side
     seg{s}/key{a}/textured_template -> seg{s}/key{a}/deformed_frames  (and the same for key b)
     seg{s}/rife_matrix -> seg{s}/quality_metrics -> seg{s}/optimal_path -> seg{s}/frames
 and the shot's `inbetween_frames` joins the segments' frames. A side's texture reads the segment's other
-key (its drawing and masks show the pockets), and so do its deformed frames (registered onto the other
+key (its drawing and refined masks show the pockets), and so do its deformed frames (registered onto the other
 key's drawing, its masks' colour and coverage, as they near that key: ops/geometry/register.py), which is why
 a side belongs to the segment: editing key k's annotation reruns key k's lane and the two segments beside it,
 and nothing of the keys farther away.
@@ -19,10 +19,9 @@ Sources (observable in Dagster, content-hashed by ops/shotio/versions.py): key{k
 key{k}/t_junctions, seg{s}/motion (the poses of the segment's frames: a pose edited inside segment 1 leaves
 segment 0 fresh) and ground_truth.
 
-Three deliberate narrowings, so edits recompute less: the template reads the neighbouring key poses instead of
-the motion (only they are its targets, §4.4); it reads the T-junctions through the refined masks, which
-carry them snapped onto the boundaries; and a side reads the other key's masks, not its refined masks, so a
-T-junction clicked on one key leaves the other key's side of the segment cached. A one-drawing shot's lane reads its motion instead: there is no other
+Two deliberate narrowings, so edits recompute less: the template reads the neighbouring key poses instead of
+the motion (only they are its targets, §4.4), and it reads the T-junctions through the refined masks, which
+carry them snapped onto the boundaries. A one-drawing shot's lane reads its motion instead: there is no other
 key, so the poses it must reach are the motion's.
 """
 from __future__ import annotations
@@ -106,7 +105,7 @@ def shot_graph(n_keys: int) -> ShotGraph:
         a, b = s, s + 1
         for k, o in ((a, b), (b, a)):
             parents[side(s, k, "textured_template")] = (f"key{k}/template", f"key{k}/refined_masks",
-                                                        f"key{o}/masks", f"key{k}/pose", f"key{o}/pose")
+                                                        f"key{o}/refined_masks", f"key{k}/pose", f"key{o}/pose")
             parents[side(s, k, "deformed_frames")] = (side(s, k, "textured_template"), f"seg{s}/motion",
                                                       f"key{o}/masks")
         lanes = (side(s, a, "deformed_frames"), side(s, b, "deformed_frames"))

@@ -16,7 +16,7 @@ from ops.geometry.register import PASSES, Registration, fade_in, flow_targets, g
 from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedTemplate
 
 
-def texture_lane(template: Template, own: RefinedMasks, other: Masks | None, pose: np.ndarray,
+def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks | None, pose: np.ndarray,
                  other_pose: np.ndarray | None, inpainter: Inpainter, mu: float = 200.0, grad_tol: float = 0.01,
                  max_iter: int = 5000, start: np.ndarray | None = None) -> tuple[TexturedTemplate, float]:
     """Depth weights + textures (§5.1) from both keyframes' masks and key poses (J, 3) -> (textured, energy at the

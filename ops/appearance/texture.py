@@ -19,7 +19,7 @@ from ops.appearance.inpaint import Inpainter, inpaint
 from ops.appearance.layers import layer_depth, layer_groups, rest_stacks
 from ops.appearance.render import affine_maps, rasterize_ids
 from ops.geometry.mesh import vertex_components
-from ops.types import Masks, RefinedMasks, Template, TexturedTemplate
+from ops.types import RefinedMasks, Template, TexturedTemplate
 
 VISIBLE_FRACTION = 0.5  # a pocket face takes the other keyframe's texture if this much of it is visible there
 SAMPLES_PER_SIDE = 4  # k: a face's visibility is measured at the k*k centroids of its regular subdivision
@@ -99,7 +99,7 @@ def _extend_margin(back: np.ndarray, inpainted: np.ndarray, covered: np.ndarray,
     inpainted[ring] = inpainted[iy[ring], ix[ring]]
 
 
-def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, other: Masks | None,
+def texture_template(template: Template, weights: np.ndarray, own: RefinedMasks, other: RefinedMasks | None,
                      pose: np.ndarray, deformed_to_other: np.ndarray | None, inpainter: Inpainter) -> TexturedTemplate:
     """Both keyframes' masks (their coverage and unmixed colour are the drawings), the keyframe's pose (J, 3),
     the template deformed to the other keyframe's pose (n, 2) pixels -> TexturedTemplate (the layer in front at
@@ -163,7 +163,7 @@ def _inpaint_by_sheet(template: Template, faces: np.ndarray, sheet: np.ndarray, 
 
 
 def _back_layer(template: Template, hidden: np.ndarray, face_source: np.ndarray, texture: np.ndarray,
-                other: Masks | None, deformed_to_other: np.ndarray | None, inpainter: Inpainter
+                other: RefinedMasks | None, deformed_to_other: np.ndarray | None, inpainter: Inpainter
                 ) -> tuple[np.ndarray, np.ndarray]:
     """The back texture (H, W, 4) float32 and its inpainted pixels (H, W) bool of hidden faces (k,) that do not lie
     on each other at rest (one back level); sets their face_source (m,) to 1 (the other keyframe) or 2 (inpainted)."""
