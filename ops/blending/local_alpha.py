@@ -26,15 +26,22 @@ from ops.types import DeformedSequence, ImageMatrix
 SIGMA = 3.0  # px: how far a lane's unreliable texture reaches into its neighbourhood's alpha
 
 
-def local_alpha(alpha: float, unreliable0: np.ndarray, unreliable1: np.ndarray, strength: float,
-                sigma: float = SIGMA) -> np.ndarray:
-    """(H, W) float32 alpha per pixel: `alpha` moved by strength (u0 - u1), u the (H, W) bool unreliable masks of
-    lane 0 and lane 1 blurred over sigma px (the kernel cut at 3 sigma: further away alpha is exactly `alpha`),
-    clipped to [0, 1]."""
+def alpha_shift(unreliable0: np.ndarray, unreliable1: np.ndarray, strength: float, sigma: float = SIGMA
+                ) -> np.ndarray:
+    """(H, W) float32 strength (u0 - u1), u the (H, W) bool unreliable masks of lane 0 and lane 1 blurred over
+    sigma px (the kernel cut at 3 sigma): how far each pixel's alpha moves, before clipping, at any alpha."""
     size = 2 * int(np.ceil(3 * sigma)) + 1
     u0 = cv2.GaussianBlur(unreliable0.astype(np.float32), (size, size), sigma)
     u1 = cv2.GaussianBlur(unreliable1.astype(np.float32), (size, size), sigma)
-    return np.clip(np.float32(alpha) + np.float32(strength) * (u0 - u1), 0.0, 1.0).astype(np.float32)
+    return np.float32(strength) * (u0 - u1)
+
+
+def local_alpha(alpha: float, unreliable0: np.ndarray, unreliable1: np.ndarray, strength: float,
+                sigma: float = SIGMA) -> np.ndarray:
+    """(H, W) float32 alpha per pixel: `alpha` moved by alpha_shift (further than 3 sigma from unreliable texture
+    alpha is exactly `alpha`), clipped to [0, 1]."""
+    shift = alpha_shift(unreliable0, unreliable1, strength, sigma)
+    return np.clip(np.float32(alpha) + shift, 0.0, 1.0).astype(np.float32)
 
 
 def local_frames(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSequence, matrix: ImageMatrix,
