@@ -158,6 +158,120 @@ def _loop_segments(idx: list[np.ndarray], warnings: list[str]) -> np.ndarray:
     return S[np.sort(keep)]
 
 
+def _split_at(U: np.ndarray, S: np.ndarray, M: np.ndarray, cuts: dict[int, list[int]]
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """Segments S (s, 2) with markers M (s,), each segment i in cuts split at the vertices cuts[i] of U (n, 2)
+    (ordered along it) -> (S', M')."""
+    out_s, out_m = [], []
+    for i, (a, b) in enumerate(S.tolist()):
+        if i not in cuts:
+            out_s.append((a, b))
+            out_m.append(M[i])
+            continue
+        d = U[b] - U[a]
+        inner = sorted(set(cuts[i]) - {a, b}, key=lambda v: float((U[v] - U[a]) @ d))
+        chain = [a, *inner, b]
+        out_s += list(zip(chain[:-1], chain[1:]))
+        out_m += [M[i]] * (len(chain) - 1)
+    return np.asarray(out_s, np.int64).reshape(-1, 2), np.asarray(out_m, M.dtype)
+
+
+def _cross(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    return p[..., 0] * q[..., 1] - p[..., 1] * q[..., 0]
+
+
+def _touches(U: np.ndarray, S: np.ndarray, tol: float) -> dict[int, list[int]]:
+    """{segment of S (s, 2): the vertices of U (n, 2) within tol px of its interior (not its ends)}."""
+    A, B = U[S[:, 0]], U[S[:, 1]]
+    D = B - A
+    L2 = np.maximum((D ** 2).sum(axis=1), 1e-18)
+    lo, hi = np.minimum(A, B) - tol, np.maximum(A, B) + tol
+    cuts: dict[int, list[int]] = {}
+    # vertices in a segment's box, then within tol of its interior
+    si, vi = np.nonzero((U[None, :, 0] >= lo[:, None, 0]) & (U[None, :, 0] <= hi[:, None, 0])
+                        & (U[None, :, 1] >= lo[:, None, 1]) & (U[None, :, 1] <= hi[:, None, 1]))
+    other = (vi != S[si, 0]) & (vi != S[si, 1])
+    si, vi = si[other], vi[other]
+    t = ((U[vi] - A[si]) * D[si]).sum(axis=1) / L2[si]
+    gap = np.linalg.norm(U[vi] - (A[si] + t[:, None] * D[si]), axis=1)
+    on = (t > 0) & (t < 1) & (gap < tol)
+    for i, v in zip(si[on].tolist(), vi[on].tolist()):
+        cuts.setdefault(i, []).append(v)
+    return cuts
+
+
+def _crossings(U: np.ndarray, S: np.ndarray, skip: set[int]) -> list[tuple[int, int, np.ndarray]]:
+    """(i, j, point (2,)) for pairs of segments of S (s, 2) over U (n, 2) that cross properly and share no end,
+    at most one per segment, segments in `skip` left out."""
+    A, B = U[S[:, 0]], U[S[:, 1]]
+    D = B - A
+    lo, hi = np.minimum(A, B), np.maximum(A, B)
+    i, j = np.nonzero(np.triu((hi[:, None, 0] >= lo[None, :, 0]) & (lo[:, None, 0] <= hi[None, :, 0])
+                              & (hi[:, None, 1] >= lo[None, :, 1]) & (lo[:, None, 1] <= hi[None, :, 1]), k=1))
+    apart = (S[i, 0] != S[j, 0]) & (S[i, 0] != S[j, 1]) & (S[i, 1] != S[j, 0]) & (S[i, 1] != S[j, 1])
+    i, j = i[apart], j[apart]
+    den = _cross(D[i], D[j])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ti = _cross(A[j] - A[i], D[j]) / den
+        tj = _cross(A[j] - A[i], D[i]) / den
+    hit = (den != 0) & (ti > 0) & (ti < 1) & (tj > 0) & (tj < 1)
+    found, used = [], set(skip)
+    for a, b, t in zip(i[hit].tolist(), j[hit].tolist(), ti[hit].tolist()):
+        if a in used or b in used:
+            continue  # one crossing per segment and round: its pieces are tested again
+        used |= {a, b}
+        found.append((a, b, A[a] + t * D[a]))
+    return found
+
+
+def _planar(U: np.ndarray, S: np.ndarray, M: np.ndarray, warnings: list[str], tol: float = POINT_CLEARANCE_PX
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A planar straight-line graph: vertices U (n, 2), segments S (s, 2), markers M (s,) -> (U', S', M') where no
+    two segments cross and no vertex lies within tol px of a segment it does not end; U' starts with U.
+
+    Loops that cross or touch (overlapping occlusion regions, one painted per pair of bones) are legal input to
+    Triangle, which inserts the crossings itself; but where a crossing falls on another loop's vertex its own
+    insertion can fail by a segmentation fault that no exception catches (the generator's true regions of a
+    held-out shot: one region's vertex on another region's edge, where that edge crosses the first region).
+    Here every segment is split at the vertices within tol of it, and each crossing is made a vertex (snapped
+    to one within tol), until none is left; a smaller tol makes Triangle refine around hair-thin features
+    (1e-4 px: 55 000 faces instead of 4 000). A segment made twice keeps the larger marker (a slit along a loop
+    is still cut)."""
+    U = np.asarray(U, np.float64)
+    S = np.asarray(S, np.int64).reshape(-1, 2)
+    M = np.asarray(M).ravel()
+    added = split = 0
+    for _ in range(8):
+        cuts = _touches(U, S, tol)
+        points = []
+        for a, b, x in _crossings(U, S, set(cuts)):
+            gap = np.linalg.norm(U - x, axis=1)
+            v = int(gap.argmin())
+            if gap[v] >= tol:
+                v = len(U) + len(points)
+                points.append(x)
+            cuts.setdefault(a, []).append(v)
+            cuts.setdefault(b, []).append(v)
+        if not cuts:
+            break
+        if points:
+            U = np.concatenate([U, np.asarray(points)])
+            added += len(points)
+        split += len(cuts)
+        S, M = _split_at(U, S, M, cuts)
+        keep = S[:, 0] != S[:, 1]
+        S, M = S[keep], M[keep]
+    if split:
+        key = np.sort(S, axis=1)
+        order = np.lexsort((-M, key[:, 1], key[:, 0]))  # per repeated segment, the larger marker first
+        _, first = np.unique(key[order], axis=0, return_index=True)
+        keep = np.sort(order[first])
+        S, M = S[keep], M[keep]
+        warnings.append(f"split {split} constraint segment(s) where they cross or pass within {tol:g} px of a "
+                        f"vertex ({added} crossing(s) made vertices)")
+    return U, S, M
+
+
 def _with_slit_ends(loops: list[np.ndarray], slits: list[np.ndarray], tol: float = 0.05) -> list[np.ndarray]:
     """The loops with every slit end that lies on one of their edges (within tol px, off its vertices) made a
     vertex of that loop. Triangle would otherwise split the edge at the end itself, and a slit meeting the
@@ -223,9 +337,9 @@ def triangulate_pslg(
         off += len(L)
         slit_segs += [(a, b) for a, b in zip(ix[:-1], ix[1:]) if a != b]
     slit_segs = np.asarray(slit_segs, np.int64).reshape(-1, 2)
-    markers = np.r_[np.ones(len(segs)), np.full(len(slit_segs), 2)].astype(np.int32)[:, None]
-    segs = np.concatenate([segs, slit_segs])
-    data = {"vertices": U, "segments": segs.astype(np.int32), "segment_markers": markers}
+    markers = np.r_[np.ones(len(segs)), np.full(len(slit_segs), 2)].astype(np.int32)
+    U, segs, markers = _planar(U, np.concatenate([segs, slit_segs]), markers, warnings)
+    data = {"vertices": U, "segments": segs.astype(np.int32), "segment_markers": markers[:, None]}
     if holes is not None and len(holes):
         data["holes"] = np.asarray(holes, dtype=np.float64).reshape(-1, 2)
     out = tr.triangulate(data, f"pq{min_angle:g}a{max_area:.12g}Q")

@@ -1,10 +1,15 @@
 """Tests of ops.geometry.mesh and ops.geometry.polygon: CDT with constraint loops, repairs, orientation,
 boundary loops, polygon area and point-in-polygon."""
+import subprocess
+import sys
+import textwrap
+
 import numpy as np
 import pytest
 
 from ops.geometry.mesh import (
     POINT_CLEARANCE_PX,
+    _planar,
     boundary_loops,
     cut_along,
     face_stretch,
@@ -86,6 +91,86 @@ def test_a_point_a_hair_off_a_constraint_loop_leaves_no_flat_face(offset):
     moved = np.linalg.norm(res.V[res.point_vertex] - p, axis=1)
     assert (res.point_vertex >= 0).all() and moved.max() <= POINT_CLEARANCE_PX + 1e-9
     assert moved[2] == 0.0  # a point on a loop vertex merges with it
+
+
+# two overlapping regions of the generator's true occlusion masks (a held-out folded arm): a vertex of the first
+# lies exactly on an edge of the second where that edge crosses the first; Triangle alone dies on it (SIGSEGV)
+CROSSED_REGION = [[152.9999378845944, 115.0000396899187], [153.99966430664062, 122.99942016601562],
+                  [143.9962921142578, 128.01739501953125], [134.8, 124.2], [123.99974822998047, 119.0],
+                  [128.00001525878906, 106.00001525878906], [147.9989013671875, 111.00210571289062]]
+CROSSING_REGION = [[130.0, 117.0], [136.0, 126.0], [120.0, 140.0]]
+
+
+def test_regions_crossing_at_a_vertex_triangulate_instead_of_crashing():
+    """In a process of its own, since the failure is a segmentation fault: the two regions inside a square mesh,
+    every input point a vertex, every face with a real area, the square's area covered."""
+    code = textwrap.dedent(f"""
+        import numpy as np
+        from ops.geometry.mesh import signed_areas, triangulate_pslg
+        outer = np.array([[100.0, 90.0], [180.0, 90.0], [180.0, 150.0], [100.0, 150.0]])
+        res = triangulate_pslg([outer, np.array({CROSSED_REGION}), np.array({CROSSING_REGION})], 8.729)
+        areas = signed_areas(res.V, res.F)
+        assert areas.min() > 1e-4, areas.min()
+        assert abs(areas.sum() - 80 * 60) < 1e-6, areas.sum()
+        assert all((ix >= 0).all() for ix in res.loop_vertex)
+        assert any("cross" in w for w in res.warnings), res.warnings
+        print("ok")
+    """)
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and run.stdout.strip() == "ok", (run.returncode, run.stderr[-2000:])
+
+
+def _proper_crossings(U, S):
+    A, B = U[S[:, 0]], U[S[:, 1]]
+    D = B - A
+    n = 0
+    for i in range(len(S)):
+        for j in range(i + 1, len(S)):
+            if set(S[i]) & set(S[j]):
+                continue
+            den = D[i, 0] * D[j, 1] - D[i, 1] * D[j, 0]
+            if den == 0:
+                continue
+            e = A[j] - A[i]
+            ti, tj = (e[0] * D[j, 1] - e[1] * D[j, 0]) / den, (e[0] * D[i, 1] - e[1] * D[i, 0]) / den
+            n += 0 < ti < 1 and 0 < tj < 1
+    return n
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_planar_graph_has_no_crossings_or_touches_and_keeps_every_segments_points(seed):
+    """Random crossing polygons (brute force over all pairs): afterwards no two segments cross, no vertex lies
+    within the tolerance of a segment's interior, the input vertices keep their indices, every piece lies on the
+    segment it came from, and the pieces' total length is the input's."""
+    rng = np.random.default_rng(seed)
+    loops = [rng.uniform(0, 40, (int(rng.integers(3, 8)), 2)) for _ in range(3)]
+    loops.append(np.array(CROSSED_REGION) - 110.0)
+    U = np.concatenate(loops)
+    offs = np.cumsum([0] + [len(L) for L in loops])
+    S = np.concatenate([np.stack([np.arange(a, b), np.roll(np.arange(a, b), -1)], 1) for a, b in zip(offs, offs[1:])])
+    M = np.ones(len(S), np.int32)
+    M[:2] = 2
+    assert _proper_crossings(U, S) > 0
+    warnings = []
+    U2, S2, M2 = _planar(U, S, M, warnings)
+    assert np.array_equal(U2[:len(U)], U) and warnings
+    assert _proper_crossings(U2, S2) == 0
+    A, B = U2[S2[:, 0]], U2[S2[:, 1]]
+    for k in range(len(U2)):
+        D = B - A
+        t = ((U2[k] - A) * D).sum(1) / (D ** 2).sum(1)
+        gap = np.linalg.norm(A + t[:, None] * D - U2[k], axis=1)
+        inside = (t > 0) & (t < 1) & (S2[:, 0] != k) & (S2[:, 1] != k)
+        assert not (inside & (gap < POINT_CLEARANCE_PX)).any()
+    # each piece on an input segment (within the tolerance the snapping allows), the lengths adding up
+    A0, B0 = U[S[:, 0]], U[S[:, 1]]
+    D0 = B0 - A0
+    for a, b in zip(A, B):
+        mid = (a + b) / 2
+        t = np.clip(((mid - A0) * D0).sum(1) / (D0 ** 2).sum(1), 0, 1)
+        assert np.linalg.norm(A0 + t[:, None] * D0 - mid, axis=1).min() < POINT_CLEARANCE_PX
+    assert abs(np.linalg.norm(B - A, axis=1).sum() - np.linalg.norm(D0, axis=1).sum()) < 0.5
+    assert set(M2.tolist()) == {1, 2}
 
 
 def test_points_in_polygon_matches_analytic_disc():
