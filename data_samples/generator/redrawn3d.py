@@ -475,7 +475,8 @@ def make_redrawn3d(entry: int, size: tuple[int, int] = (256, 256), first: int = 
             extra = {"set": "redrawn", "kind": kind, "redraw": amount, "plan_entry": entry, **info, "checks": checks}
             shots.append(Shot3D(drawn.frames, drawn.coverage, drawn.joints, drawn.parents, drawn.poses,
                                 (drawn.over[0], drawn.over[-1]), family, style, kind, camera.view, first + n, seed,
-                                attempt, name=redrawn_name(first + n, family, style, kind, amount), extra=extra))
+                                attempt, name=redrawn_name(first + n, family, style, kind, amount), extra=extra,
+                                key_parts=drawn.key_parts()))
         if len(shots) == len(amounts):
             names = [s.name for s in shots]
             for s in shots:

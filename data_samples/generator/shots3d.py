@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation, Slerp
 
+from ops.shotio.load import MAX_MASK_FILES
+
 from .bodies3d import LEFT, UP, Body, Mark, make_body, two_bone_ik, unit
 from .bvh import Motion
 from .looks3d import make_look3d
@@ -65,7 +67,9 @@ class Shot3D:
     """One shot's arrays: frames (T, H, W, 3) uint8 RGB; coverage (T, H, W) float32; joints, parents of the
     skeleton; poses (T, J, 3) float64 x, y px and depth; crossings per key: the sorted non-adjacent bone pairs
     (child joint names) overlapping by >= MIN_EVIDENCE_PX; and what it is (family, style, motion, view, seed).
-    name: the directory name when not shot_name's default; extra: more of what it holds, for heldout.json."""
+    name: the directory name when not shot_name's default; extra: more of what it holds, for heldout.json;
+    key_parts: per key (first, last frame) the drawn bones' shapes and entry depths (Drawn.cover, Drawn.entry),
+    from which write_true_annotation paints the true occlusion regions."""
 
     frames: np.ndarray
     coverage: np.ndarray
@@ -82,6 +86,7 @@ class Shot3D:
     attempt: int
     name: str = ""
     extra: dict = field(default_factory=dict)
+    key_parts: tuple = ()
 
 
 def plan(index: int) -> tuple[str, str, str]:
@@ -306,6 +311,10 @@ class Drawn:
     cover: list[dict]
     entry: list[dict]
 
+    def key_parts(self) -> tuple:
+        """((cover, entry) of the first frame, (cover, entry) of the last): the keys' bone shapes and depths."""
+        return (self.cover[0], self.entry[0]), (self.cover[-1], self.entry[-1])
+
     def leaves_frame(self) -> bool:
         """True when the character touches the image border in some frame."""
         fg = self.coverage >= 0.5
@@ -415,7 +424,8 @@ def make_shot3d(index: int, size: tuple[int, int] = (256, 256), bvh_dir: Path | 
                 continue  # the keys must differ beyond the skeleton by what was asked
             extra = {"redraw": redraw, "redraw_iou": round(iou, 4)}
         return Shot3D(drawn.frames, drawn.coverage, drawn.joints, drawn.parents, drawn.poses, (over[0], over[-1]),
-                      family, style, source, camera.view, index, seed, attempt, extra=extra)
+                      family, style, source, camera.view, index, seed, attempt, extra=extra,
+                      key_parts=drawn.key_parts())
     raise RuntimeError(f"shot {index} ({family}, {style}, {motion}): no usable motion in {MAX_TRIES} tries")
 
 
@@ -452,3 +462,34 @@ def write_shot3d(shot: Shot3D, out_root: Path) -> Path:
             "crossings": {"key0": shot.crossings[0], "key1": shot.crossings[1]}} | shot.extra
     (d / "heldout.json").write_text(json.dumps(meta, indent=1) + "\n")
     return d
+
+
+def write_true_annotation(shot: Shot3D, d: Path) -> list[list[dict]]:
+    """Annotate the written shot directory d as a person who knew the drawing would: per key, one painted
+    occlusion mask per pair of bones that share no joint and overlap (occlusion3d.pair_truth: its pixels inside
+    the drawn character, the bone entered first in front; the MAX_MASK_FILES largest where a side view makes
+    more), key{k}_occlusion_{i}.png, and the T-junctions where
+    the back bone's outline meets the front one's, written into shot.json's masks.occlusion and t_junctions.
+    -> per key the regions' descriptions (front_part, back_part, pixels, t_junctions). The control for "are the
+    masks the bottleneck": the same shot with what the occlusion stage could at best have predicted."""
+    if not shot.key_parts:
+        raise ValueError(f"{shot_name(shot)}: made without its keys' parts; regenerate it")
+    data = json.loads((d / "shot.json").read_text())
+    files, junctions, described = [], [], []
+    for k, (cover, entry) in enumerate(shot.key_parts):
+        fg = shot.coverage[0 if k == 0 else -1] >= 0.5
+        masks, pairs = pair_truth(cover, entry, shot.joints, shot.parents, fg)
+        kept = [(m, p) for m, p in zip(masks, pairs) if not p["adjacent"]]
+        # a keyframe takes at most MAX_MASK_FILES painted regions: the largest, as a person would keep them
+        kept = sorted(kept, key=lambda mp: -mp[1]["pixels"])[:MAX_MASK_FILES]
+        names = [f"key{k}_occlusion_{i}.png" for i in range(len(kept))]
+        for name, (m, _) in zip(names, kept):
+            _write_png(d / name, (m * 255).astype(np.uint8))
+        files.append(names)
+        junctions.append([pt for _, p in kept for pt in p["t_junctions"]])
+        described.append([{key: p[key] for key in ("front_part", "back_part", "pixels", "t_junctions")}
+                          for _, p in kept])
+    data["masks"] = {"foreground": [None, None], "occlusion": files}
+    data["t_junctions"] = junctions
+    (d / "shot.json").write_text(_dump(data) + "\n")
+    return described

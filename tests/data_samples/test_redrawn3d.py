@@ -5,8 +5,10 @@ from __future__ import annotations
 import json
 import math
 
+import cv2
 import numpy as np
 import pytest
+from scipy import ndimage
 
 from benchmarks.heldout_shots import check_shot, main
 from data_samples.generator import redrawn3d as rd
@@ -24,7 +26,9 @@ from data_samples.generator.shots3d import (
     place,
     procedural_motion,
     write_shot3d,
+    write_true_annotation,
 )
+from ops.shotio.load import load_shot
 
 SIZE = (128, 128)
 SCALE = SIZE[0] * SIZE[1] / 256.0 ** 2
@@ -155,3 +159,32 @@ def test_heldout_shots_writes_the_redrawn_set(tmp_path):
     manifest = json.loads((tmp_path / "previews" / "manifest.json").read_text())
     assert [m["shot"] for m in manifest] == [d.name for d in dirs]
     assert (tmp_path / "previews" / f"{dirs[0].name}.png").is_file()
+
+
+def test_the_true_annotation_paints_every_recorded_crossing_with_its_junctions(shots, tmp_path):
+    """write_true_annotation: the loader reads one painted region per pair of overlapping bones that share no joint;
+    every crossing the generator recorded (>= MIN_EVIDENCE_PX) is one of them, each region lies where both bones'
+    shapes do inside the character, and its T-junctions lie on the front bone's shape's edge."""
+    folded = shots["fold_arms"][0]
+    d = write_shot3d(folded, tmp_path)
+    described = write_true_annotation(folded, d)
+    loaded = load_shot(d)
+    for k, (cover, _) in enumerate(folded.key_parts):
+        regions = described[k]
+        assert len(loaded.occlusion_masks[k]) == len(regions) > 0
+        names = {f"{r['front_part']}/{r['back_part']}" for r in regions}
+        assert set(folded.crossings[k]) <= names
+        bone = {f"{folded.joints[folded.parents[c]]}-{folded.joints[c]}": i
+                for i, c in enumerate(c for c in range(len(folded.parents)) if folded.parents[c] >= 0)}
+        for r, path in zip(regions, loaded.occlusion_masks[k]):
+            mask = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE) > 127
+            front, back = cover[bone[r["front_part"]]], cover[bone[r["back_part"]]]
+            assert mask.sum() == r["pixels"] and not (mask & ~(front & back)).any()
+        points = np.array([p for r in regions for p in r["t_junctions"]]).reshape(-1, 2)
+        assert len(loaded.t_junctions[k]) == len(points)
+        if len(points):
+            front_any = np.any([cover[bone[r["front_part"]]] for r in regions], axis=0)
+            edge = front_any ^ ndimage.binary_erosion(front_any)
+            dist = ndimage.distance_transform_edt(~edge)
+            ij = np.clip(np.round(points[:, ::-1]).astype(int), 0, np.array(edge.shape) - 1)
+            assert dist[ij[:, 0], ij[:, 1]].max() <= 2.0
