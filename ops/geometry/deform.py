@@ -129,6 +129,7 @@ SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut s
 # time over all of them; the other eight settle in other minima of hard, crumpled frames (docs/performance.md).
 FRAME_METHOD, FRAME_GRAD_TOL = "newton", 1e-3
 NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
+FREE_FLOOR = 1e-14  # a handle-free vertex's regularizer, at least this share of its cotangent diagonal
 MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: 0.3 and 16 keep
 #                   the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
 
@@ -174,7 +175,11 @@ class Deformer:
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))
             mass = np.where(mass > 0, mass, 1.0 / max(n, 1))
-            self._diagonal += 1e-6 * mass * free
+            # the cotangent weights do not shrink with a face: a handle-free sliver (one face of area 1e-13 cut
+            # off by overlapping painted regions) had a mass so small against them that the system was exactly
+            # singular, so its regularizer is at least FREE_FLOOR of its cotangent diagonal
+            cot = -igl.cotmatrix(self.rest_n, self.faces).diagonal()
+            self._diagonal += np.maximum(1e-6 * mass, FREE_FLOOR * np.abs(cot)) * free
 
     def _preconditioner(self):
         """Factorize P = 8 (-L) + the diagonal once (L-BFGS's initial inverse Hessian): its solve function."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import triangle as tr
+from scipy.spatial import cKDTree
 
 from ops.geometry.polygon import points_in_polygon, project_to_polyline
 
@@ -24,6 +25,7 @@ _MERGE_GRID = 1e-7
 # from an occlusion region's loop made Triangle split the segment beside it into a flat sliver, and the template
 # then dropped every contact slit of the drawing (one_girl_wave: the forearm stayed sewn to the skirt)
 POINT_CLEARANCE_PX = 0.05
+MAX_PLANAR_ROUNDS = 64  # rounds of _planar's splitting (each splits a segment at one crossing at most)
 
 
 @dataclass
@@ -224,31 +226,57 @@ def _crossings(U: np.ndarray, S: np.ndarray, skip: set[int]) -> list[tuple[int, 
     return found
 
 
+def _snap(U: np.ndarray, S: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Vertices U (n, 2) closer than tol px to each other made one (the first of each cluster), segments S (s, 2)
+    renumbered -> (U' (n', 2), S', index (n,) of each input vertex in U')."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    pairs = cKDTree(U).query_pairs(tol, output_type="ndarray")
+    if not len(pairs):
+        return U, S, np.arange(len(U))
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(len(U), len(U)))
+    label = connected_components(graph, directed=False)[1]
+    first = np.full(label.max() + 1, len(U))
+    np.minimum.at(first, label, np.arange(len(U)))
+    kept = np.sort(first)
+    rank = np.empty(len(U), np.int64)
+    rank[kept] = np.arange(len(kept))
+    index = rank[first[label]]
+    return U[kept], index[S], index
+
+
 def _planar(U: np.ndarray, S: np.ndarray, M: np.ndarray, warnings: list[str], tol: float = POINT_CLEARANCE_PX
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A planar straight-line graph: vertices U (n, 2), segments S (s, 2), markers M (s,) -> (U', S', M') where no
-    two segments cross and no vertex lies within tol px of a segment it does not end; U' starts with U.
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A planar straight-line graph: vertices U (n, 2), segments S (s, 2), markers M (s,) -> (U', S', M', index
+    (n,) of each input vertex in U') where no two vertices lie within tol px, no two segments cross and no vertex
+    lies within tol of a segment it does not end.
 
     Loops that cross or touch (overlapping occlusion regions, one painted per pair of bones) are legal input to
-    Triangle, which inserts the crossings itself; but where a crossing falls on another loop's vertex its own
-    insertion can fail by a segmentation fault that no exception catches (the generator's true regions of a
-    held-out shot: one region's vertex on another region's edge, where that edge crosses the first region).
-    Here every segment is split at the vertices within tol of it, and each crossing is made a vertex (snapped
-    to one within tol), until none is left; a smaller tol makes Triangle refine around hair-thin features
-    (1e-4 px: 55 000 faces instead of 4 000). A segment made twice keeps the larger marker (a slit along a loop
-    is still cut)."""
+    Triangle, which inserts the crossings itself; but where a crossing falls on or a hair from another vertex,
+    its own insertion failed ("topological inconsistency after splitting a segment"), once by a segmentation
+    fault that no exception catches (the generator's true regions of held-out shots: one region's vertex on
+    another region's edge, where that edge crosses the first region; two regions' vertices 6e-7 px apart). Here
+    vertices within tol are merged, every segment is split at the vertices within tol of it, and each crossing
+    is made a vertex (merged with one within tol), until none is left; a smaller tol makes Triangle refine
+    around hair-thin features (1e-4 px: 55 000 faces instead of 4 000). A segment made twice keeps the larger
+    marker (a slit along a loop is still cut)."""
     U = np.asarray(U, np.float64)
-    S = np.asarray(S, np.int64).reshape(-1, 2)
     M = np.asarray(M).ravel()
+    U, S, index = _snap(U, np.asarray(S, np.int64).reshape(-1, 2), tol)
+    merged = len(index) - len(U)
     added = split = 0
-    for _ in range(8):
+    for _ in range(MAX_PLANAR_ROUNDS):
+        keep = S[:, 0] != S[:, 1]
+        S, M = S[keep], M[keep]
         cuts = _touches(U, S, tol)
-        points = []
+        points: list[np.ndarray] = []
         for a, b, x in _crossings(U, S, set(cuts)):
-            gap = np.linalg.norm(U - x, axis=1)
+            near = np.concatenate([U, np.asarray(points).reshape(-1, 2)])
+            gap = np.linalg.norm(near - x, axis=1)
             v = int(gap.argmin())
             if gap[v] >= tol:
-                v = len(U) + len(points)
+                v = len(near)
                 points.append(x)
             cuts.setdefault(a, []).append(v)
             cuts.setdefault(b, []).append(v)
@@ -259,17 +287,18 @@ def _planar(U: np.ndarray, S: np.ndarray, M: np.ndarray, warnings: list[str], to
             added += len(points)
         split += len(cuts)
         S, M = _split_at(U, S, M, cuts)
-        keep = S[:, 0] != S[:, 1]
-        S, M = S[keep], M[keep]
-    if split:
+    else:
+        warnings.append(f"constraint segments still cross after {MAX_PLANAR_ROUNDS} rounds of splitting")
+    if split or merged:
         key = np.sort(S, axis=1)
         order = np.lexsort((-M, key[:, 1], key[:, 0]))  # per repeated segment, the larger marker first
         _, first = np.unique(key[order], axis=0, return_index=True)
         keep = np.sort(order[first])
         S, M = S[keep], M[keep]
-        warnings.append(f"split {split} constraint segment(s) where they cross or pass within {tol:g} px of a "
-                        f"vertex ({added} crossing(s) made vertices)")
-    return U, S, M
+        warnings.append(f"made the constraint outlines planar: {merged} vertex(es) within {tol:g} px merged, "
+                        f"{split} segment(s) split where they cross or pass within {tol:g} px of a vertex "
+                        f"({added} crossing(s) made vertices)")
+    return U, S, M, index
 
 
 def _with_slit_ends(loops: list[np.ndarray], slits: list[np.ndarray], tol: float = 0.05) -> list[np.ndarray]:
@@ -338,7 +367,8 @@ def triangulate_pslg(
         slit_segs += [(a, b) for a, b in zip(ix[:-1], ix[1:]) if a != b]
     slit_segs = np.asarray(slit_segs, np.int64).reshape(-1, 2)
     markers = np.r_[np.ones(len(segs)), np.full(len(slit_segs), 2)].astype(np.int32)
-    U, segs, markers = _planar(U, np.concatenate([segs, slit_segs]), markers, warnings)
+    U, segs, markers, planar_index = _planar(U, np.concatenate([segs, slit_segs]), markers, warnings)
+    inv, idx = planar_index[inv], [planar_index[ix] for ix in idx]
     data = {"vertices": U, "segments": segs.astype(np.int32), "segment_markers": markers[:, None]}
     if holes is not None and len(holes):
         data["holes"] = np.asarray(holes, dtype=np.float64).reshape(-1, 2)

@@ -1,10 +1,19 @@
 """Tests of ops.deform: injectivity bound, solver convergence without folds, free components, sequences."""
 import time
 
+import igl
 import numpy as np
 import pytest
 
-from ops.geometry.deform import SOLVERS, Deformer, count_flipped, deform_sequence, first_fold_time, max_injective_step
+from ops.geometry.deform import (
+    FREE_FLOOR,
+    SOLVERS,
+    Deformer,
+    count_flipped,
+    deform_sequence,
+    first_fold_time,
+    max_injective_step,
+)
 from ops.geometry.mesh import signed_areas, triangulate_pslg
 from ops.types import Template
 
@@ -108,6 +117,26 @@ def test_component_without_handles(method):
     single = Deformer(V1, F1, h, method=method).solve(bend(MID, 60))
     # Doubling the area halves every normalized term of the first strip; the free one adds 4 * 1/2.
     assert np.isclose(res.energy, 0.5 * single.energy + 2.0, rtol=1e-4)
+
+
+@pytest.mark.parametrize("method", SOLVERS)
+def test_a_handle_free_sliver_component_solves(method):
+    """A lone face of 1.5e-7 px^2 with no handle (overlapping painted regions cut it off, and a lane's
+    registration starts from where the frame squashed it; h01's true masks): its lumped mass vanishes against its
+    cotangent weights, and the system was exactly singular. It solves, folds nothing and stays where it is."""
+    V1, F1, h = strip()
+    sliver = np.array([[85.0, 101.0], [85.00096902096588, 100.9998788691448],
+                       [85.00052318446612, 101.00024881817635]])
+    V = np.concatenate([V1, sliver])
+    F = np.concatenate([F1, [[len(V1) + 1, len(V1) + 2, len(V1)]]])
+    assert signed_areas(V, F).min() > 0
+    d = Deformer(V, F, h, method=method)
+    # its regularizer keeps up with its cotangent weights (there the system was singular, by rounding's luck)
+    cot = -igl.cotmatrix(d.rest_n, d.faces).diagonal()[len(V1):]
+    assert (d._diagonal[len(V1):] >= FREE_FLOOR * cot * (1 - 1e-9)).all() and cot.min() > 0.1
+    res = d.solve(bend(MID, 30))
+    assert count_flipped(res.x, F) == 0
+    assert np.abs(res.x[len(V1):] - sliver).max() < 1e-6
 
 
 def test_folded_start_raises():
