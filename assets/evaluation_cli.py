@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ops import preview
+from ops.errors import ShotError
 from ops.evaluation.baselines import METHODS, summarize
 from ops.shotio.image_io import read_image, to_rgba, write_image
 from ops.shotio.load import ground_truth_files
@@ -28,25 +29,33 @@ def _markdown(df: pd.DataFrame) -> str:
 
 
 def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None) -> int:
-    from .run import evaluate_stages, run_shot, store
+    from .run import RunInterrupted, StageFailed, evaluate_stages, run_shot, store
 
     root = Path(root)
     out = Path(out) if out else root.parent / "eval"
     out.mkdir(parents=True, exist_ok=True)
     shots = sorted(d for d in root.iterdir() if (d / "shot.json").is_file()
                    and json.loads((d / "shot.json").read_text()).get("ground_truth"))
-    tables, figure_rows = [], []
+    tables, figure_rows, failed = [], [], []
     st = store()
     for d in shots:
-        run_shot(d, out / "runs" / d.name, settings)
-        partition = evaluate_stages(d, settings)
+        try:  # one shot's failure is one line of the summary; the other shots are still scored (as batch does)
+            run_shot(d, out / "runs" / d.name, settings)
+            partition = evaluate_stages(d, settings)
+        except (ShotError, StageFailed) as e:
+            if isinstance(e, RunInterrupted):
+                raise
+            failed.append((d.name, " ".join(str(e).split()), isinstance(e, ShotError)))
+            print(f"error: {failed[-1][1]}", file=sys.stderr)
+            continue
         table = st.read("evaluation/metrics", partition)
         tables.append(table.assign(shot=d.name))
         if any(json.loads((d / "shot.json").read_text()).get("t_junctions") or []):
             figure_rows.append(_figure_row(st, partition, d))
     if not tables:
-        print(f"error: {root}: no shot with a ground_truth folder", file=sys.stderr)
-        return 2
+        print(f"error: {root}: no shot with a ground_truth folder" if not failed else
+              f"error: {root}: every shot failed", file=sys.stderr)
+        return 2 if all(bad for *_, bad in failed) else 1
     per_frame = pd.concat(tables, ignore_index=True)
     per_frame.to_csv(out / "results.csv", index=False)
     per_shot = summarize(per_frame)
@@ -60,6 +69,9 @@ def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None
         agreement.columns = [f"{a}_{b}" for a, b in agreement.columns]
         md += ("\n## Lane agreement: each lane at the other key's pose against that key's drawing\n\n"
                + _markdown(agreement.reset_index()))
+    if failed:
+        md += ("\n## Failed shots (not in the means above)\n\n| shot | error |\n|---|---|\n"
+               + "".join(f"| {name} | {message.replace('|', '/')} |\n" for name, message, _ in failed))
     (out / "summary.md").write_text(md)
     if figure_rows:
         width = max(r.shape[1] for r in figure_rows)
@@ -67,6 +79,9 @@ def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None
         write_image(out / "figure.png", np.concatenate(padded, axis=0))
     print(md)
     print(f"written: {out / 'summary.md'}, {out / 'results.csv'}" + (f", {out / 'figure.png'}" if figure_rows else ""))
+    if failed:  # the exit status batch gives: 1 when a stage failed, 2 when only inputs were bad
+        print(f"{len(failed)} of {len(shots)} shots failed: {', '.join(name for name, *_ in failed)}", file=sys.stderr)
+        return 2 if all(bad for *_, bad in failed) else 1
     return 0
 
 

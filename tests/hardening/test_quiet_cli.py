@@ -170,3 +170,28 @@ def test_one_time_figure_on_stderr_stdout_report_and_the_wall_clock(warm, tmp_pa
     assert f"{total:.1f} s)" in done.stdout and f"cached, {total:.1f} s" in done.stderr
     assert total <= wall and wall - total < 2.0, (total, wall)
     assert not re.search(r"\d+\.\d s", done.stderr.replace(f"{total:.1f} s", ""))  # no second figure
+
+
+def test_eval_scores_the_other_shots_when_one_fails(warm, tmp_path):
+    """A shot whose input is bad is one error line and one row of the summary's failed shots; the others are
+    scored, and eval exits 2 as batch does for bad input."""
+    import json
+    import shutil
+
+    root = tmp_path / "two_shots"
+    good, bad = root / SHOT, root / "broken"
+    shutil.copytree(warm.shot, good)
+    shutil.copytree(warm.shot, bad)
+    data = json.loads((bad / "shot.json").read_text())
+    data["keyframes"][1] = "missing.png"
+    (bad / "shot.json").write_text(json.dumps(data))
+    done = cli(warm.home, "eval", str(root), "--out", str(tmp_path / "eval"))
+    assert done.returncode == 2, done.stderr
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "missing.png" in errors[0]
+    assert_quiet(done, allowed=lambda line: line.startswith("error:") or "shots failed: broken" in line
+                 or progress_line(line))
+    summary = (tmp_path / "eval" / "summary.md").read_text()
+    means, failed = summary.split("## Failed shots")
+    assert f"| {SHOT} | ours |" in means and "broken" not in means
+    assert "| broken | " in failed and "missing.png" in failed
