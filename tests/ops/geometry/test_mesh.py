@@ -120,6 +120,23 @@ def test_regions_crossing_at_a_vertex_triangulate_instead_of_crashing():
     assert run.returncode == 0 and run.stdout.strip() == "ok", (run.returncode, run.stderr[-2000:])
 
 
+def test_generic_crossings_are_left_to_triangle_and_degenerate_ones_planarized():
+    """Loops that cross at generic points reach Triangle as given (it inserts the crossings; the meshes of every
+    evaluated shot stay as they were); a vertex on another loop's edge, or two vertices 1e-6 px apart, is
+    degenerate and made planar first."""
+    outer = square(0, 0, 60)
+    a, b = square(10, 10, 20, n_side=2), square(21.3, 17.1, 20, n_side=3)
+    plain = triangulate_pslg([outer, a, b], 4.0)
+    assert not any("planar" in w for w in plain.warnings)
+    on_edge = np.array([[15.0, 10.0], [35.0, 5.0], [35.0, 15.0]])  # its first vertex on a's bottom edge
+    near = b.copy()
+    near[0] = a[1] + [1e-6, 0.0]
+    for loops in ([outer, a, on_edge], [outer, a, near]):
+        res = triangulate_pslg(loops, 4.0)
+        assert any("planar" in w for w in res.warnings)
+        assert signed_areas(res.V, res.F).min() > 1e-4
+
+
 def _proper_crossings(U, S):
     A, B = U[S[:, 0]], U[S[:, 1]]
     D = B - A
