@@ -150,6 +150,7 @@ class Deformer:
         self.norm = normalization(self.rest, self.faces)
         self.rest_n = self.norm.to_norm(self.rest)
         self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu, handle_weights)
+        self._laplacian = None  # -cotmatrix of the normalized rest mesh, made when first needed
         self._setup_free_groups()
         self._edges = _edge_operator(self.faces, len(self.rest))
         self._newton: NewtonSystem | None = None
@@ -157,7 +158,8 @@ class Deformer:
 
     def _setup_free_groups(self) -> None:
         """Label the vertices of components without handles, whose mean is projected out of every step, and the
-        diagonal both systems add: 2 mu per handle, a tiny multiple of the lumped mass on handle-free vertices."""
+        diagonal both systems add: 2 mu per handle, a tiny multiple of the lumped mass on handle-free vertices (at
+        least FREE_FLOOR of their cotangent diagonal)."""
         n = len(self.rest_n)
         comp = vertex_components(n, self.faces)
         has_handle = np.zeros(comp.max() + 1, bool)
@@ -175,16 +177,22 @@ class Deformer:
             mass = np.zeros(n)
             np.add.at(mass, self.faces.ravel(), np.repeat(self.energy_fn.weight / 3.0, 3))
             mass = np.where(mass > 0, mass, 1.0 / max(n, 1))
-            # the cotangent weights do not shrink with a face: a handle-free sliver (one face of area 1e-13 cut
+            # the cotangent weights do not shrink with a face: a handle-free sliver (one face of 1.5e-7 px^2 cut
             # off by overlapping painted regions) had a mass so small against them that the system was exactly
             # singular, so its regularizer is at least FREE_FLOOR of its cotangent diagonal
-            cot = -igl.cotmatrix(self.rest_n, self.faces).diagonal()
+            cot = self._cot_laplacian().diagonal()
             self._diagonal += np.maximum(1e-6 * mass, FREE_FLOOR * np.abs(cot)) * free
+
+    def _cot_laplacian(self):
+        """(n, n) sparse -L, the cotangent Laplacian of the normalized rest mesh (positive semidefinite)."""
+        if self._laplacian is None:
+            self._laplacian = -igl.cotmatrix(self.rest_n, self.faces)
+        return self._laplacian
 
     def _preconditioner(self):
         """Factorize P = 8 (-L) + the diagonal once (L-BFGS's initial inverse Hessian): its solve function."""
         if self._solve_P is None:
-            L = -igl.cotmatrix(self.rest_n, self.faces)
+            L = self._cot_laplacian()
             self._solve_P = splu(sp.csc_matrix(8.0 * L + sp.diags(self._diagonal))).solve
         return self._solve_P
 
