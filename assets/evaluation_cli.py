@@ -52,10 +52,12 @@ def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None
         tables.append(table.assign(shot=d.name))
         if any(json.loads((d / "shot.json").read_text()).get("t_junctions") or []):
             figure_rows.append(_figure_row(st, partition, d))
+    # the exit status batch gives: 1 when a stage failed, 2 when only inputs were bad (or there were none)
+    failure_status = 2 if all(bad for *_, bad in failed) else 1
     if not tables:
         print(f"error: {root}: no shot with a ground_truth folder" if not failed else
               f"error: {root}: every shot failed", file=sys.stderr)
-        return 2 if all(bad for *_, bad in failed) else 1
+        return failure_status
     per_frame = pd.concat(tables, ignore_index=True)
     per_frame.to_csv(out / "results.csv", index=False)
     per_shot = summarize(per_frame)
@@ -79,9 +81,9 @@ def evaluate_root(root: str | Path, out: str | Path | None = None, settings=None
         write_image(out / "figure.png", np.concatenate(padded, axis=0))
     print(md)
     print(f"written: {out / 'summary.md'}, {out / 'results.csv'}" + (f", {out / 'figure.png'}" if figure_rows else ""))
-    if failed:  # the exit status batch gives: 1 when a stage failed, 2 when only inputs were bad
+    if failed:
         print(f"{len(failed)} of {len(shots)} shots failed: {', '.join(name for name, *_ in failed)}", file=sys.stderr)
-        return 2 if all(bad for *_, bad in failed) else 1
+        return failure_status
     return 0
 
 

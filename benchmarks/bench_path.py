@@ -33,7 +33,7 @@ if str(ROOT) not in sys.path:
 from assets.blending import _table_arrays  # noqa: E402
 from assets.evaluation import ground_truth  # noqa: E402
 from ops.blending.image_matrix import bisection_closure, build_image_matrix, cell_dtype  # noqa: E402
-from ops.blending.local_alpha import alpha_shift, local_frames  # noqa: E402
+from ops.blending.local_alpha import alpha_shift, local_frames, shifted_alpha  # noqa: E402
 from ops.blending.path import TRANSITION_WEIGHT, optimal_path  # noqa: E402
 from ops.blending.quality import unreliable_pixels  # noqa: E402
 from ops.evaluation.metrics import psnr  # noqa: E402
@@ -64,7 +64,7 @@ def local_texture_quality(seq0, seq1, alphas: np.ndarray, strength: float) -> np
         w1 = np.where(u1[t], c1[t], 0.0) / max(float(c1[t].sum()), 1e-12)
         shift = alpha_shift(u0[t], u1[t], strength)  # the same at every alpha: blurred once per frame
         for j, alpha in enumerate(alphas):
-            a = np.clip(np.float32(alpha) + shift, 0.0, 1.0).astype(np.float64)  # local_alpha's
+            a = shifted_alpha(alpha, shift).astype(np.float64)  # local_alpha's
             q[t, j] = float(((1.0 - a) * w0 + a * w1).sum())
     return q
 

@@ -36,12 +36,16 @@ def alpha_shift(unreliable0: np.ndarray, unreliable1: np.ndarray, strength: floa
     return np.float32(strength) * (u0 - u1)
 
 
+def shifted_alpha(alpha: float, shift: np.ndarray) -> np.ndarray:
+    """(H, W) float32 alpha per pixel: `alpha` moved by an (H, W) alpha_shift, clipped to [0, 1]."""
+    return np.clip(np.float32(alpha) + shift, 0.0, 1.0).astype(np.float32)
+
+
 def local_alpha(alpha: float, unreliable0: np.ndarray, unreliable1: np.ndarray, strength: float,
                 sigma: float = SIGMA) -> np.ndarray:
     """(H, W) float32 alpha per pixel: `alpha` moved by alpha_shift (further than 3 sigma from unreliable texture
     alpha is exactly `alpha`), clipped to [0, 1]."""
-    shift = alpha_shift(unreliable0, unreliable1, strength, sigma)
-    return np.clip(np.float32(alpha) + shift, 0.0, 1.0).astype(np.float32)
+    return shifted_alpha(alpha, alpha_shift(unreliable0, unreliable1, strength, sigma))
 
 
 def local_frames(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSequence, matrix: ImageMatrix,
