@@ -153,6 +153,7 @@ class Outcome:
     seconds: float
     record: dict | None  # provenance to store with a new output (None when cached)
     preview_md: str | None  # the preview as inline markdown for the UI
+    cpu_seconds: float = 0.0  # CPU the stage took: its thread's and its worker calls' (not library thread pools')
 
 
 # metadata a stage's provenance keeps beside its warnings, for the run's report: the lanes' agreement with the
@@ -172,7 +173,7 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
                              "materialize them first (the CLI selects them)")
     code = spec.code if code is None else code
     progress.emit(env.partition, name, "start")
-    start = time.perf_counter()
+    start, thread_cpu, worker_cpu = time.perf_counter(), time.thread_time(), processes.worker_cpu_seconds()
     version, recorded = env.store.provenance(name, env.partition)
     resources = {r: resource_config(env.resource(r)) for r in spec.resources}
     cached = version is not None and not differences(recorded, parents, settings, code, resources)
@@ -189,11 +190,12 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
         if metrics:
             record["metrics"] = metrics
     seconds = time.perf_counter() - start
+    cpu = time.thread_time() - thread_cpu + processes.worker_cpu_seconds() - worker_cpu
     preview_md = None
     if result.preview is not None:
         write_image(env.store.preview_path(name, env.partition), result.preview)
         preview_md = preview_markdown(result.preview)
-    return Outcome(version, cached, result, seconds, record, preview_md)
+    return Outcome(version, cached, result, seconds, record, preview_md, cpu)
 
 
 def preview_markdown(img: np.ndarray, max_width: int = 640) -> str:

@@ -30,6 +30,7 @@ import signal
 import sys
 import tempfile
 import threading
+import time
 import types
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
@@ -142,21 +143,35 @@ def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
     _started.wait()  # the workers were started with this process's __main__ hidden: never by an op's submit
     folder = _spill_folder()
     try:
-        return _unpack(executor.submit(_call, fn, _pack((args, kwargs), folder), folder).result())
+        packed, cpu = executor.submit(_call, fn, _pack((args, kwargs), folder), folder).result()
     except BrokenProcessPool:
         _discard(executor)
         raise RuntimeError(f"the worker process running {fn.__module__}.{fn.__qualname__} died "
                            "(a crash in native code); rerun the shot, or set INBETWEEN_PROCESSES=0 to run it "
                            "in this process") from None
+    _calls.cpu_seconds = worker_cpu_seconds() + cpu
+    return _unpack(packed)
 
 
-def _call(fn: Callable[..., Any], packed: bytes | _Spilled, folder: Path) -> bytes | _Spilled:
-    """In the worker: fn(*args, **kwargs) of the packed (args, kwargs), its result packed; an exception that could
-    not be rebuilt from its pickle in this process (a constructor whose arguments are not its args) is sent as a
-    RuntimeError with its type and message: failing to unpickle it would break the whole pool."""
+def worker_cpu_seconds() -> float:
+    """CPU seconds (user + system) the worker processes have spent on this thread's calls so far: a stage's
+    own cost, which the wall clock of a stage beside another lane on the same cores is not."""
+    return getattr(_calls, "cpu_seconds", 0.0)
+
+
+_calls = threading.local()  # per calling thread: cpu_seconds of its calls' work in the workers
+
+
+def _call(fn: Callable[..., Any], packed: bytes | _Spilled, folder: Path) -> tuple[bytes | _Spilled, float]:
+    """In the worker: fn(*args, **kwargs) of the packed (args, kwargs) -> (its result packed, the CPU seconds of
+    this process it took, unpacking and packing included); an exception that could not be rebuilt from its
+    pickle in this process (a constructor whose arguments are not its args) is sent as a RuntimeError with its
+    type and message: failing to unpickle it would break the whole pool."""
+    start = time.process_time()
     args, kwargs = _unpack(packed)
     try:
-        return _pack(fn(*args, **kwargs), folder)
+        out = _pack(fn(*args, **kwargs), folder)
+        return out, time.process_time() - start
     except Exception as e:
         try:  # rebuilt from its reduction, as unpickling in this process would rebuild it
             rebuild, rebuild_args, *_ = e.__reduce__()

@@ -75,8 +75,9 @@ def stage_asset(stage: StageDef):
             raise dg.Failure(str(e)) from None
         result, cached, seconds = outcome.result, outcome.cached, outcome.seconds
         warnings = list(result.metadata.get("warnings", []))
+        cpu = round(outcome.cpu_seconds, 3)
         meta = {DIGEST_KEY: dg.MetadataValue.text(outcome.version), "seconds": dg.MetadataValue.float(round(seconds, 3)),
-                "cached": dg.MetadataValue.bool(cached)}
+                "cpu_seconds": dg.MetadataValue.float(cpu), "cached": dg.MetadataValue.bool(cached)}
         if outcome.record is not None:  # the record written with the new output (resources/storage.py)
             meta[PROVENANCE_KEY] = dg.MetadataValue.text(json.dumps(outcome.record))
         meta.update({k: _metadata_value(v) for k, v in result.metadata.items()})
@@ -84,7 +85,8 @@ def stage_asset(stage: StageDef):
             meta["preview"] = dg.MetadataValue.md(outcome.preview_md)
             meta["preview_path"] = dg.MetadataValue.path(str(env.store.preview_path(name, partition)))
         yield dg.Output(result.value, data_version=dg.DataVersion(outcome.version), metadata=meta)
-        progress.emit(partition, name, "done", cached=cached, seconds=round(seconds, 3), warnings=len(warnings))
+        progress.emit(partition, name, "done", cached=cached, seconds=round(seconds, 3), cpu_seconds=cpu,
+                      warnings=len(warnings))
         if checks:
             checked = env.read(name) if cached else result.value
             for check_name, fn in checks.items():

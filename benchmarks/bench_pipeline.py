@@ -17,7 +17,9 @@
 4. `batch` over the sample shots: wall time and peak RSS (largest process, and the whole process tree);
 5. adding 5 T-junctions to a shot (`--add-junctions`, default arm_cross): a cold run of the shot as it is and
    one with 5 more clicks on its occlusion boundaries (each in the middle of the longest stretch of boundary
-   without one), per stage seconds before and after and their ratio; then the stages the clicks rerun, each
+   without one), per stage wall seconds before and after and their ratio, and in the same runs each stage's own
+   CPU seconds (report.json's cpu_seconds: its thread's and its worker calls', not ONNX Runtime's own threads,
+   so rife_matrix's is low) and their ratio; then the stages the clicks rerun, each
    computed again alone in this process from the parents those runs stored (CPU seconds: no other lane on the
    cores, so the ratio is the stage's own).
 
@@ -401,13 +403,19 @@ def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> 
     before, after = float(np.median(walls["before"])), float(np.median(walls["after"]))
     print(f"\nadding {count} T-junctions to {src.name}'s key{k} ({n - count} -> {n}), {rounds} round(s), medians: "
           f"cold run {before:.1f} s -> {after:.1f} s, {after / before:.2f}x")
-    print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}  per round")
+    # wall seconds beside the other lane, and the stage's own CPU seconds in the same runs (its thread's and its
+    # worker calls', report.json's cpu_seconds: what the stage costs, whatever runs beside it)
+    print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}  {'cpu before':>10s} {'cpu after':>9s} "
+          f"{'ratio':>6s}  wall ratio per round")
     for stage in stages["before"][0]:
         a = [st[stage]["seconds"] for st in stages["before"]]
         b = [st[stage]["seconds"] for st in stages["after"]]
+        ca = float(np.median([st[stage].get("cpu_seconds", np.nan) for st in stages["before"]]))
+        cb = float(np.median([st[stage].get("cpu_seconds", np.nan) for st in stages["after"]]))
         ma, mb = float(np.median(a)), float(np.median(b))
         each = " ".join(f"{y / x:.2f}" if x > 0.005 else "nan" for x, y in zip(a, b))
-        print(f"{stage:28s} {ma:8.2f} {mb:8.2f} {mb / ma if ma > 0.005 else float('nan'):6.2f}  {each}")
+        print(f"{stage:28s} {ma:8.2f} {mb:8.2f} {mb / ma if ma > 0.005 else float('nan'):6.2f}  {ca:10.2f} {cb:9.2f} "
+              f"{cb / ca if ca > 0.005 else float('nan'):6.2f}  {each}")
     # the stages the clicks rerun, each alone in this process: CPU seconds without the other lane's contention
     names = [f"key{k}/refined_masks", f"key{k}/template", f"seg0/key{k}/textured_template",
              f"seg0/key{k}/deformed_frames", "seg0/rife_matrix"]

@@ -39,7 +39,7 @@ EXECUTORS = ("in_process", "celery")  # celery: every step on a farm worker (ass
 def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False,
             executor: str = "in_process", outputs: dict[str, tuple[str, Any] | None] | None = None,
             on_computed: Callable[[str, str, Any], None] | None = None) -> dict[str, dict]:
-    """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cached}}.
+    """Run `names` (plus everything needed to make the Dagster UI current); {stage: {seconds, cpu_seconds, cached}}.
     outputs: {stage: None} of the outputs the caller will read; those this process computes are filled in as
     (data version, value), so the caller need not read them back. on_computed(stage, data version, output): told
     of each new output as soon as it is computed, before Dagster records it (in process only)."""
@@ -56,7 +56,8 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
 
     def on_event(ev: dict) -> None:
         if ev["event"] == "done" and ev["partition"] == p.partition:
-            executed[ev["stage"]] = {"seconds": ev["seconds"], "cached": ev["cached"]}
+            executed[ev["stage"]] = {"seconds": ev["seconds"], "cpu_seconds": ev.get("cpu_seconds", 0.0),
+                                     "cached": ev["cached"]}
 
     # the stages compute as soon as their parents have, ahead of the steps that record them, from before
     # Dagster is imported: their outputs are stored and recorded by their steps alone, and a stage that needs a
@@ -93,13 +94,15 @@ def read_output(name: str, partition: str, outputs: dict[str, tuple[str, Any] | 
 
 
 def stage_timings(events) -> dict[str, dict]:
-    """{stage: {seconds, cached}} from a run's materializations (steps that ran in other processes)."""
+    """{stage: {seconds, cpu_seconds, cached}} from a run's materializations (steps that ran in other processes)."""
     out = {}
     for ev in events:
         if ev.event_type_value == "ASSET_MATERIALIZATION":
             mat = ev.event_specific_data.materialization
             meta = {k: getattr(v, "value", v) for k, v in mat.metadata.items()}
-            out["/".join(mat.asset_key.path)] = {"seconds": meta.get("seconds", 0.0), "cached": meta.get("cached", False)}
+            out["/".join(mat.asset_key.path)] = {"seconds": meta.get("seconds", 0.0),
+                                                 "cpu_seconds": meta.get("cpu_seconds", 0.0),
+                                                 "cached": meta.get("cached", False)}
     return out
 
 
@@ -134,8 +137,8 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
             segments = [_segment_report(shot, s, read_output(f"seg{s}/optimal_path", partition, outputs), settings.blend,
                                         _recorded_lane_agreement(st, partition, shot, s))
                         for s in range(shot.n_keys - 1)]
-        stages = {n: {"executed": n in executed, **executed.get(n, {"seconds": 0.0, "cached": True}),
-                      "warnings": repairs.get(n, 0)} for n in names}
+        unrun = {"seconds": 0.0, "cpu_seconds": 0.0, "cached": True}
+        stages = {n: {"executed": n in executed, **executed.get(n, unrun), "warnings": repairs.get(n, 0)} for n in names}
         report = {"shot": shot.root, "partition": partition, "frames": int(len(frames.times)),
                   "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
                   "keys": shot.n_keys, "key_frames": list(shot.key_frames),

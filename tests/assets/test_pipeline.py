@@ -43,6 +43,9 @@ def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, 
     assert frames.shape[3] == 4 and frames.shape[1:3] == (192, 192)
     report = json.loads((out / "report.json").read_text())
     assert report["frames"] == n and len(report["times"]) == n and set(report["stages"]) == set(STAGES)
+    # each stage's own CPU seconds, its worker calls' included (the template's cut search runs in a worker)
+    cpu = {name: st["cpu_seconds"] for name, st in report["stages"].items()}
+    assert all(c >= 0 for c in cpu.values()) and cpu["key1/template"] > 0.01 and cpu["seg0/key0/deformed_frames"] > 0.01
     # each lane's agreement with the other key, as its deformed_frames stage measured it (docs/lanes.md)
     agreement = report["segments"][0]["lane_agreement_db"]
     assert set(agreement) == {"key0->key1", "key1->key0"} and all(20 < v < 60 for v in agreement.values())
@@ -63,7 +66,7 @@ def test_run_writes_contract_outputs_and_second_run_is_cached(home, small_shot, 
         assert psnr(frames[i], read_image(small_shot / key)) >= 40.0
     second = run_shot(small_shot, tmp_path / "out2")
     assert executed(second) == set() and second["segments"][0]["lane_agreement_db"] == agreement
-    assert all(s["cached"] for s in second["stages"].values())
+    assert all(s["cached"] and s["cpu_seconds"] == 0 for s in second["stages"].values())
     np.testing.assert_array_equal(frames_of(tmp_path / "out2"), frames)
 
 

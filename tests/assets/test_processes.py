@@ -8,6 +8,8 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
+import time
 
 import numpy as np
 import pytest
@@ -54,6 +56,28 @@ def test_a_worker_that_dies_is_one_error_and_the_next_op_gets_a_new_pool():
 
 def _crash():
     os.kill(os.getpid(), signal.SIGKILL)
+
+
+def _spin(seconds: float) -> float:
+    start = time.process_time()
+    while time.process_time() - start < seconds:
+        pass
+    return seconds
+
+
+def test_a_workers_cpu_seconds_count_for_the_thread_that_called_it_alone():
+    # a stage's cpu_seconds (report.json) is its thread's CPU plus its calls' in the workers
+    before, here = processes.worker_cpu_seconds(), time.thread_time()
+    processes.run(_spin, 0.3)
+    spent = processes.worker_cpu_seconds() - before
+    assert 0.3 <= spent < 3.0
+    assert time.thread_time() - here < 0.15  # waiting for the worker costs this thread next to nothing
+    other = []
+    thread = threading.Thread(target=lambda: other.append((processes.run(_spin, 0.1), processes.worker_cpu_seconds())))
+    thread.start()
+    thread.join()
+    assert 0.1 <= other[0][1] < 1.0  # the other thread's call counts for it
+    assert processes.worker_cpu_seconds() - before == spent  # and not for this one
 
 
 def test_switched_off_every_op_runs_here(monkeypatch):
