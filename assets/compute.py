@@ -153,7 +153,7 @@ class Outcome:
     seconds: float
     record: dict | None  # provenance to store with a new output (None when cached)
     preview_md: str | None  # the preview as inline markdown for the UI
-    cpu_seconds: float = 0.0  # CPU the stage took: its thread's and its worker calls' (not library thread pools')
+    cpu_seconds: float = 0.0  # CPU of the stage's thread and its worker calls (not other threads')
 
 
 # metadata a stage's provenance keeps beside its warnings, for the run's report: the lanes' agreement with the
