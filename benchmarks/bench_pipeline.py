@@ -15,7 +15,8 @@
 3. scaling over resolution (arm_cross resized to 256, 384, 512, 1024 px, 9 frames) and over frame count
    (arm_cross at 384 px with only its key poses, `frames` = 5, 9, 17, 33): cold wall, rife_matrix, peak RSS;
 4. `batch` over the sample shots: wall time and peak RSS (largest process, and the whole process tree);
-5. adding 5 T-junctions to a shot (`--add-junctions`, default arm_cross): a cold run of the shot as it is and
+5. adding 5 T-junctions to a shot (`--add-junctions`, default arm_cross, curled_tail, hand_on_hip): a cold run
+   of the shot as it is and
    one with 5 more clicks on its occlusion boundaries (each in the middle of the longest stretch of boundary
    without one), per stage wall seconds before and after and their ratio, and in the same runs each stage's own
    CPU seconds (report.json's cpu_seconds: its thread's and its worker calls', not other threads', so
@@ -24,7 +25,7 @@
    cores, so the ratio is the stage's own).
 
     python benchmarks/bench_pipeline.py [--shots data_samples] [--only arm_cross ...] [--no-scaling] [--no-batch]
-                                        [--add-junctions SHOT | --no-add-junctions] [--rounds N]
+                                        [--add-junctions SHOT ... | --no-add-junctions] [--rounds N]
 
 The machine is shared and its wall times are noisy: CPU seconds are printed beside them, and the load average
 before and after. Targets (issue 11, measured on a machine ~2.5x faster than the 2-core one here): unchanged
@@ -427,6 +428,11 @@ def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> 
         print(f"{name:28s} {a:8.2f} {b:8.2f} {b / a:6.2f}", flush=True)
 
 
+# the "adding 5 T-junctions" shots: a lone region's 2 -> 7 (arm_cross's key1: the most probes per click), 11 -> 16
+# where a region turns odd and every probe is deformed from rest (curled_tail), and 8 -> 13, the issue's own count
+ADD_JUNCTIONS = ("arm_cross", "curled_tail", "hand_on_hip")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--shots", default=str(ROOT / "data_samples"))
@@ -435,7 +441,8 @@ def main() -> None:
     ap.add_argument("--frames", type=int, nargs="*", default=[5, 9, 17, 33])
     ap.add_argument("--no-scaling", action="store_true")
     ap.add_argument("--no-batch", action="store_true")
-    ap.add_argument("--add-junctions", default="arm_cross", help="shot of the 'adding 5 T-junctions' case")
+    ap.add_argument("--add-junctions", nargs="*", default=list(ADD_JUNCTIONS),
+                    help="shots of the 'adding 5 T-junctions' case")
     ap.add_argument("--no-add-junctions", action="store_true")
     ap.add_argument("--rounds", type=int, default=1, help="repeat each sample's cold run, RIFE-direct and edit in turn "
                     "this many times, and the added T-junctions case's two runs (a shared machine: the median round is reported, "
@@ -454,7 +461,9 @@ def main() -> None:
             print_samples(results)
             print_stage_split(results)
         if not args.no_add_junctions:
-            print_added_junctions(Path(args.shots) / args.add_junctions, tmp, 5, args.rounds)
+            for name in args.add_junctions:
+                (tmp / f"added-{name}").mkdir()
+                print_added_junctions(Path(args.shots) / name, tmp / f"added-{name}", 5, args.rounds)
         if not args.no_scaling:
             print_scaling(Path(args.shots) / "arm_cross", tmp, args.sizes, args.frames)
         if not args.no_batch:
