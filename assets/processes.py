@@ -41,6 +41,8 @@ from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
 from typing import Any
 
+from ops import cputime
+
 WORKERS = 2  # the machine's cores: the two lanes
 # what the stages offload needs, imported once in the fork server (and never Dagster or torch)
 PRELOAD = ("ops.appearance.lane", "ops.geometry.topology", "ops.segmentation.masks")
@@ -149,17 +151,8 @@ def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         raise RuntimeError(f"the worker process running {fn.__module__}.{fn.__qualname__} died "
                            "(a crash in native code); rerun the shot, or set INBETWEEN_PROCESSES=0 to run it "
                            "in this process") from None
-    _calls.cpu_seconds = worker_cpu_seconds() + cpu
+    cputime.charge(cpu)  # the worker's CPU is this thread's stage's cost (report.json's cpu_seconds)
     return _unpack(packed)
-
-
-def worker_cpu_seconds() -> float:
-    """CPU seconds (user + system) the worker processes have spent on this thread's calls so far: a stage's
-    own cost, which the wall clock of a stage beside another lane on the same cores is not."""
-    return getattr(_calls, "cpu_seconds", 0.0)
-
-
-_calls = threading.local()  # per calling thread: cpu_seconds of its calls' work in the workers
 
 
 def _call(fn: Callable[..., Any], packed: bytes | _Spilled, folder: Path) -> tuple[bytes | _Spilled, float]:

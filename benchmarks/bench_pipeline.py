@@ -19,8 +19,8 @@
    of the shot as it is and
    one with 5 more clicks on its occlusion boundaries (each in the middle of the longest stretch of boundary
    without one), per stage wall seconds before and after and their ratio, and in the same runs each stage's own
-   CPU seconds (report.json's cpu_seconds: its thread's and its worker calls', not other threads', so
-   rife_matrix's, whose network calls run on a pool, is low) and their ratio; then the stages the clicks rerun, each
+   CPU seconds (report.json's cpu_seconds: its thread's, its worker calls' and its pool's) and their ratio; then
+   the stages the clicks rerun, each
    computed again alone in this process from the parents those runs stored (CPU seconds: no other lane on the
    cores, so the ratio is the stage's own).
 

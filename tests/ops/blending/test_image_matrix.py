@@ -1,7 +1,10 @@
 """Tests of ops.image_matrix: dyadic grid, bisection bookkeeping, endpoints, motion, memmap output."""
+import time
+
 import numpy as np
 import pytest
 
+from ops import cputime
 from ops.blending.image_matrix import (
     alpha_grid,
     bisection_closure,
@@ -257,6 +260,26 @@ def test_a_failing_row_fails_the_matrix():
     f0, f1 = random_frames(6), random_frames(6, seed=1)
     with pytest.raises(RuntimeError, match="network failed"):
         build_image_matrix(f0, f1, np.linspace(0, 1, 6), Failing(), depth=2)
+
+
+def test_the_rows_cpu_on_the_pool_is_charged_to_the_thread_that_built_the_matrix():
+    # a stage's cpu_seconds counts the network calls its matrix made on the pool's threads (ops.cputime)
+    class Spinning(AveragingFake):
+        def concurrency(self):
+            return 2
+
+        def midpoint_tensors(self, img0, img1):
+            start = time.thread_time()
+            while time.thread_time() - start < 0.05:
+                pass
+            return super().midpoint_tensors(img0, img1)
+
+    fake = Spinning()
+    before, here = cputime.charged(), time.thread_time()
+    build_image_matrix(random_frames(6), random_frames(6, seed=1), np.linspace(0, 1, 6), fake, depth=2)
+    on_pool, own = cputime.charged() - before, time.thread_time() - here
+    assert on_pool >= 0.1  # at least two calls ran on the pool
+    assert on_pool + own >= 0.05 * len(fake.calls)  # every call's CPU is counted, wherever it ran
 
 
 class CountingOnnx(OnnxRife):
