@@ -20,7 +20,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ops import cputime
+from ops.cputime import charged
 from ops.settings import RecordingSettings, Settings
 from ops.shotio.image_io import read_image, to_rgba, write_image
 from ops.types import Shot
@@ -174,7 +174,7 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
                              "materialize them first (the CLI selects them)")
     code = spec.code if code is None else code
     progress.emit(env.partition, name, "start")
-    start, thread_cpu, elsewhere = time.perf_counter(), time.thread_time(), cputime.charged()
+    start, thread_cpu, elsewhere = time.perf_counter(), time.thread_time(), charged()
     version, recorded = env.store.provenance(name, env.partition)
     resources = {r: resource_config(env.resource(r)) for r in spec.resources}
     cached = version is not None and not differences(recorded, parents, settings, code, resources)
@@ -191,7 +191,7 @@ def run_stage(name: str, env: StageEnv, parents: dict[str, str | None], settings
         if metrics:
             record["metrics"] = metrics
     seconds = time.perf_counter() - start
-    cpu = time.thread_time() - thread_cpu + cputime.charged() - elsewhere
+    cpu = time.thread_time() - thread_cpu + charged() - elsewhere
     preview_md = None
     if result.preview is not None:
         write_image(env.store.preview_path(name, env.partition), result.preview)

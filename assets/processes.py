@@ -41,7 +41,7 @@ from multiprocessing.reduction import ForkingPickler
 from pathlib import Path
 from typing import Any
 
-from ops import cputime
+from ops.cputime import charge
 
 WORKERS = 2  # the machine's cores: the two lanes
 # what the stages offload needs, imported once in the fork server (and never Dagster or torch)
@@ -151,7 +151,7 @@ def run(fn: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
         raise RuntimeError(f"the worker process running {fn.__module__}.{fn.__qualname__} died "
                            "(a crash in native code); rerun the shot, or set INBETWEEN_PROCESSES=0 to run it "
                            "in this process") from None
-    cputime.charge(cpu)  # the worker's CPU is this thread's stage's cost (report.json's cpu_seconds)
+    charge(cpu)  # the worker's CPU is this thread's stage's cost (report.json's cpu_seconds)
     return _unpack(packed)
 
 

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ops import cputime
+from ops.cputime import charge
 from ops.types import ImageMatrix
 
 if TYPE_CHECKING:
@@ -235,7 +235,7 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
             paired = busy[:len(busy) - len(busy) % at_once]
             with rife.calls_at_once(at_once):
                 for cpu in pool.map(_thread_cpu(fill), paired, [phase] * len(paired)):  # re-raises a chunk's error
-                    cputime.charge(cpu)  # the pool's CPU is the caller's (a stage's cpu_seconds)
+                    charge(cpu)  # the pool's CPU is the caller's (a stage's cpu_seconds)
             for t0 in chunks:
                 if t0 not in paired:
                     fill(t0, phase)

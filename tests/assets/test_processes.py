@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import assets.processes as processes
-from ops import cputime
+from ops.cputime import charged
 from ops.errors import ShotError
 
 
@@ -68,17 +68,17 @@ def _spin(seconds: float) -> float:
 
 def test_a_workers_cpu_seconds_count_for_the_thread_that_called_it_alone():
     # a stage's cpu_seconds (report.json) is its thread's CPU plus its calls' in the workers
-    before, here = cputime.charged(), time.thread_time()
+    before, here = charged(), time.thread_time()
     processes.run(_spin, 0.3)
-    spent = cputime.charged() - before
+    spent = charged() - before
     assert 0.3 <= spent < 3.0
     assert time.thread_time() - here < 0.15  # waiting for the worker costs this thread next to nothing
     other = []
-    thread = threading.Thread(target=lambda: other.append((processes.run(_spin, 0.1), cputime.charged())))
+    thread = threading.Thread(target=lambda: other.append((processes.run(_spin, 0.1), charged())))
     thread.start()
     thread.join()
     assert 0.1 <= other[0][1] < 1.0  # the other thread's call counts for it
-    assert cputime.charged() - before == spent  # and not for this one
+    assert charged() - before == spent  # and not for this one
 
 
 def test_switched_off_every_op_runs_here(monkeypatch):

@@ -4,7 +4,6 @@ import time
 import numpy as np
 import pytest
 
-from ops import cputime
 from ops.blending.image_matrix import (
     alpha_grid,
     bisection_closure,
@@ -14,6 +13,7 @@ from ops.blending.image_matrix import (
 )
 from ops.blending.rife import load_rife
 from ops.blending.rife_onnx import OnnxRife
+from ops.cputime import charged
 
 
 @pytest.fixture(scope="module")
@@ -275,9 +275,9 @@ def test_the_rows_cpu_on_the_pool_is_charged_to_the_thread_that_built_the_matrix
             return super().midpoint_tensors(img0, img1)
 
     fake = Spinning()
-    before, here = cputime.charged(), time.thread_time()
+    before, here = charged(), time.thread_time()
     build_image_matrix(random_frames(6), random_frames(6, seed=1), np.linspace(0, 1, 6), fake, depth=2)
-    on_pool, own = cputime.charged() - before, time.thread_time() - here
+    on_pool, own = charged() - before, time.thread_time() - here
     assert on_pool >= 0.1  # at least two calls ran on the pool
     assert on_pool + own >= 0.05 * len(fake.calls)  # every call's CPU is counted, wherever it ran
 
