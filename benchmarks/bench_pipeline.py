@@ -404,8 +404,8 @@ def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> 
     before, after = float(np.median(walls["before"])), float(np.median(walls["after"]))
     print(f"\nadding {count} T-junctions to {src.name}'s key{k} ({n - count} -> {n}), {rounds} round(s), medians: "
           f"cold run {before:.1f} s -> {after:.1f} s, {after / before:.2f}x")
-    # wall seconds beside the other lane, and the stage's own CPU seconds in the same runs (its thread's and its
-    # worker calls', report.json's cpu_seconds: what the stage costs, whatever runs beside it)
+    # wall seconds beside the other lane, and the stage's own CPU seconds in the same runs (report.json's
+    # cpu_seconds: what the stage costs, whatever runs beside it)
     print(f"{'stage':28s} {'before s':>8s} {'after s':>8s} {'ratio':>6s}  {'cpu before':>10s} {'cpu after':>9s} "
           f"{'ratio':>6s}  wall ratio per round")
     for stage in stages["before"][0]:
@@ -429,7 +429,7 @@ def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> 
 
 
 # the "adding 5 T-junctions" shots: a lone region's 2 -> 7 (arm_cross's key1: the most probes per click), 11 -> 16
-# where a region turns odd and every probe is deformed from rest (curled_tail), and 8 -> 13, the issue's own count
+# where a region turns odd and 8 of its 9 probes are deformed from rest (curled_tail), and 8 -> 13, the issue's own count
 ADD_JUNCTIONS = ("arm_cross", "curled_tail", "hand_on_hip")
 
 
