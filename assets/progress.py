@@ -1,6 +1,6 @@
 """Per-stage progress of a run, for whichever front end started it (CLI bar, editor stream).
 
-A stage emits "start" and "done" events (with cached, seconds, warnings).
+A stage emits "start" and "done" events (with cached, seconds, cpu_seconds, warnings).
 In the process that runs the stages, listeners registered with `listen`
 receive them; when INBETWEEN_PROGRESS names a file, they are also appended to
 it as JSON lines, so a front end can follow steps that run in other processes

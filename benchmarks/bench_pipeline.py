@@ -411,8 +411,8 @@ def print_added_junctions(src: Path, tmp: Path, count: int, rounds: int = 1) -> 
     for stage in stages["before"][0]:
         a = [st[stage]["seconds"] for st in stages["before"]]
         b = [st[stage]["seconds"] for st in stages["after"]]
-        ca = float(np.median([st[stage].get("cpu_seconds", np.nan) for st in stages["before"]]))
-        cb = float(np.median([st[stage].get("cpu_seconds", np.nan) for st in stages["after"]]))
+        ca = float(np.median([st[stage]["cpu_seconds"] for st in stages["before"]]))
+        cb = float(np.median([st[stage]["cpu_seconds"] for st in stages["after"]]))
         ma, mb = float(np.median(a)), float(np.median(b))
         each = " ".join(f"{y / x:.2f}" if x > 0.005 else "nan" for x, y in zip(a, b))
         print(f"{stage:28s} {ma:8.2f} {mb:8.2f} {mb / ma if ma > 0.005 else float('nan'):6.2f}  {ca:10.2f} {cb:9.2f} "

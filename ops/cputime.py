@@ -7,6 +7,9 @@ the difference of `charged()` over its run (assets/compute.py run_stage).
 from __future__ import annotations
 
 import threading
+import time
+from collections.abc import Callable
+from typing import Any
 
 _charged = threading.local()  # per thread: CPU seconds spent for it elsewhere so far
 
@@ -19,3 +22,13 @@ def charge(seconds: float) -> None:
 def charged() -> float:
     """CPU seconds charged to this thread so far."""
     return getattr(_charged, "seconds", 0.0)
+
+
+def thread_cpu(fn: Callable[..., Any]) -> Callable[..., float]:
+    """fn, returning instead the CPU seconds of the thread that ran it (for a pool's task: the caller charges
+    them; fn's own result is not kept)."""
+    def timed(*args: Any) -> float:
+        start = time.thread_time()
+        fn(*args)
+        return time.thread_time() - start
+    return timed

@@ -56,7 +56,7 @@ def execute(p: Plan, settings: Settings, names: list[str], verbose: bool = False
 
     def on_event(ev: dict) -> None:
         if ev["event"] == "done" and ev["partition"] == p.partition:
-            executed[ev["stage"]] = {"seconds": ev["seconds"], "cpu_seconds": ev.get("cpu_seconds", 0.0),
+            executed[ev["stage"]] = {"seconds": ev["seconds"], "cpu_seconds": ev["cpu_seconds"],
                                      "cached": ev["cached"]}
 
     # the stages compute as soon as their parents have, ahead of the steps that record them, from before

@@ -27,14 +27,13 @@ The blending itself is single precision either way.
 """
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ops.cputime import charge
+from ops.cputime import charge, thread_cpu
 from ops.types import ImageMatrix
 
 if TYPE_CHECKING:
@@ -234,7 +233,7 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
             busy = [t0 for t0 in chunks if work[t0:t0 + batch].any()]
             paired = busy[:len(busy) - len(busy) % at_once]
             with rife.calls_at_once(at_once):
-                for cpu in pool.map(_thread_cpu(fill), paired, [phase] * len(paired)):  # re-raises a chunk's error
+                for cpu in pool.map(thread_cpu(fill), paired, [phase] * len(paired)):  # re-raises a chunk's error
                     charge(cpu)  # the pool's CPU is the caller's (a stage's cpu_seconds)
             for t0 in chunks:
                 if t0 not in paired:
@@ -246,15 +245,6 @@ def build_image_matrix(frames0: np.ndarray, frames1: np.ndarray, times: np.ndarr
         out[~computed] = 0.0
     return ImageMatrix(times=np.asarray(times, dtype=np.float64), alphas=alphas, frames=out, flows=flows_out,
                        computed=computed, masks=masks_out)
-
-
-def _thread_cpu(fn: Callable[..., Any]) -> Callable[..., float]:
-    """fn, returning instead the CPU seconds of the thread that ran it (fn's own result is not kept)."""
-    def timed(*args: Any) -> float:
-        start = time.thread_time()
-        fn(*args)
-        return time.thread_time() - start
-    return timed
 
 
 def complete_cells(matrix: ImageMatrix, frames0: np.ndarray, frames1: np.ndarray, rife: Rife | OnnxRife,
