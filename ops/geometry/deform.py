@@ -128,10 +128,14 @@ SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut s
 # 1e-3 it reaches L-BFGS's energy or a lower one on 64 of 72 lanes (samples, held-out, realdev) in 0.27x its CPU
 # time over all of them; the other eight settle in other minima of hard, crumpled frames (docs/performance.md).
 FRAME_METHOD, FRAME_GRAD_TOL = "newton", 1e-3
-NEWTON_CAP = 0.3  # "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this,
+# "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this. Until the sixteenth
+# session 0.3: over the samples' cut searches 0.1 takes 1410 iterations where 0.3 took 2737 (hand_on_hip key1
+# 1200 -> 253), every winner's energy the same to 1e-4; curled_tail's key1 with five more T-junctions 77-483
+# -> 44-52 a candidate: short Newton steps along the barrier still beat L-BFGS's there. The frames: 1536 -> 1534.
+NEWTON_CAP = 0.1
 FREE_FLOOR = 1e-14  # a handle-free vertex's regularizer, at least this share of its cotangent diagonal
-MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: 0.3 and 16 keep
-#                   the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
+MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: a cap of 0.3 and
+#                   16 kept the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
 
 
 class Deformer:

@@ -8,11 +8,34 @@ from tests.ops.geometry.test_energy import setup_mesh
 
 
 def _system(d: Deformer, project: bool) -> NewtonSystem:
-    ns = NewtonSystem(d.energy_fn, d._diagonal)
-    if not project:  # the raw Hessian, to compare with finite differences of the gradient
-        raw = d.energy_fn.face_hessians
-        ns.energy_fn = type("Raw", (), {"coef": d.energy_fn.coef, "face_hessians": lambda _, X: raw(X, project=False)})()
-    return ns
+    return NewtonSystem(d.energy_fn, d._diagonal, project=project)  # project=False: the raw Hessian
+
+
+def test_assembly_matches_each_face_block_mapped_to_its_corners():
+    # brute force: every face's 4x4 Hessian in the entries of J^T (energy.face_hessians, itself checked against
+    # finite differences) mapped to its six corner coordinates by the dense chain rule and summed, against the
+    # low-rank assembly; on a mesh squashed in places (the twist projection active there) and stretched elsewhere
+    res, _ = setup_mesh()
+    d = Deformer(res.V, res.F, res.point_vertex)
+    rng = np.random.default_rng(3)
+    u = (d.rest_n[:, :1] - d.rest_n[:, 0].min()) / np.ptp(d.rest_n[:, 0])  # 0 at the left, 1 at the right
+    X = d.rest_n * (0.7 + 0.7 * u) + 0.002 * rng.standard_normal(d.rest_n.shape)
+    assert count_flipped(X, res.F) == 0
+    coef, n = d.energy_fn.coef, len(X)
+    for project in (False, True):
+        H4 = d.energy_fn.face_hessians(X, project=project)
+        dense = np.diag(np.repeat(d._diagonal, 2))
+        for f, face in enumerate(res.F):
+            A = np.zeros((4, 6))  # (p, q, r, s) = A @ (x0, y0, x1, y1, x2, y2)
+            A[0, 0::2], A[1, 1::2], A[2, 0::2], A[3, 1::2] = coef[f, 0], coef[f, 0], coef[f, 1], coef[f, 1]
+            dof = (2 * face[:, None] + np.arange(2)).ravel()
+            dense[np.ix_(dof, dof)] += A.T @ H4[f] @ A
+        got = _system(d, project).full_matrix(X).toarray()
+        assert got.shape == (2 * n, 2 * n)
+        assert np.abs(got - dense).max() <= 1e-12 * np.abs(dense).max()
+    twisted = 2.0 - 2.0 * ((d.energy_fn.jacobians_T(X) ** 2).sum(axis=(1, 2)) - np.linalg.det(
+        d.energy_fn.jacobians_T(X))) / np.linalg.det(d.energy_fn.jacobians_T(X)) ** 3 < 0
+    assert 0 < twisted.sum() < len(res.F)  # both branches of the projection ran
 
 
 def test_hessian_matches_finite_differences_of_the_gradient():
