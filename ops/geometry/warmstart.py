@@ -31,10 +31,15 @@ def transfer_positions(x_from: np.ndarray, faces_from: np.ndarray, faces_to: np.
     x[pairs[first, 0]] = x_from[pairs[first, 1]]
     ambiguous = np.unique(pairs[~first, 0])
     if len(ambiguous):
-        for v in ambiguous.tolist():
-            around = faces_to[(faces_to == v).any(axis=1)]
+        # each ambiguous vertex's faces and sources by slicing sorted arrays (a scan of every face per vertex
+        # cost 4.5 ms a transfer on curled_tail's key1: 160 transfers, 11 ambiguous vertices each)
+        corner = np.argsort(faces_to.ravel(), kind="stable")
+        bounds = np.searchsorted(faces_to.ravel()[corner], np.stack([ambiguous, ambiguous + 1]))
+        source_bounds = np.searchsorted(pairs[:, 0], np.stack([ambiguous, ambiguous + 1]))
+        for v, (lo, hi), (slo, shi) in zip(ambiguous.tolist(), bounds.T.tolist(), source_bounds.T.tolist()):
+            around = faces_to[np.sort(corner[lo:hi] // 3)]
             best, best_folds = None, None
-            for u in pairs[pairs[:, 0] == v, 1].tolist():
+            for u in pairs[slo:shi, 1].tolist():
                 x[v] = x_from[u]
                 folds = int((signed_areas(x, around) <= 0).sum())
                 if best_folds is None or folds < best_folds:
