@@ -54,8 +54,9 @@ class NewtonSystem:
         # determinant) and rank-one terms; mapped to the corners by A (4, 6), the first two are constant per face
         A = _corner_map(energy_fn.coef)  # (m, 4, 6)
         self._A = A
-        self._AA = np.einsum("fia,fib->fab", A, A)[:, a, b]  # (m, 21): A^T A
-        self._AD = np.einsum("fia,ij,fjb->fab", A, _D2_DET, A)[:, a, b]  # A^T D2 A
+        At = A.transpose(0, 2, 1)  # batched products: einsum's general path took 9 of an init's 22 ms
+        self._AA = (At @ A)[:, a, b]  # (m, 21): A^T A
+        self._AD = (At @ (_D2_DET @ A))[:, a, b]  # A^T D2 A
         self._factor: qdldl.Solver | None = None
 
     def matrix(self, X: np.ndarray) -> sp.csc_matrix:
