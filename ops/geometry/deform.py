@@ -7,8 +7,8 @@ injectivity-capped line search:
 - "newton" (the cut search's, ops.geometry.topology.Solver): projected Newton
   steps (ops.geometry.newton: each face's Hessian projected to positive
   semi-definite, the sparse system refactorized per iterate). Where the
-  injectivity bound would cut a Newton step below NEWTON_CAP the step is
-  L-BFGS's instead, for 1, 2, 4 .. MAX_BACKOFF iterations before Newton is
+  injectivity bound would cut a Newton step below its newton_cap (0.3; the
+  cut search's 0.1, SEARCH_NEWTON_CAP) the step is L-BFGS's instead, for 1, 2, 4 .. MAX_BACKOFF iterations before Newton is
   tried again: far from a minimum (a pose far from the start) Newton aims
   through folds and then creeps along the barrier into a crumpled minimum (the
   tail's direct solve to its curled pose: 920 steps to an energy of 289),
@@ -128,11 +128,14 @@ SOLVERS = ("newton", "lbfgs")  # Deformer's methods: projected Newton (the cut s
 # 1e-3 it reaches L-BFGS's energy or a lower one on 64 of 72 lanes (samples, held-out, realdev) in 0.27x its CPU
 # time over all of them; the other eight settle in other minima of hard, crumpled frames (docs/performance.md).
 FRAME_METHOD, FRAME_GRAD_TOL = "newton", 1e-3
-# "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this. Until the sixteenth
-# session 0.3: over the samples' cut searches 0.1 takes 1410 iterations where 0.3 took 2737 (hand_on_hip key1
-# 1200 -> 253), every winner's energy the same to 1e-4; curled_tail's key1 with five more T-junctions 77-483
-# -> 44-52 a candidate: short Newton steps along the barrier still beat L-BFGS's there. The frames: 1536 -> 1534.
-NEWTON_CAP = 0.1
+# "newton" takes L-BFGS steps where the injectivity bound cuts a Newton step below this (Deformer's newton_cap).
+# The lanes' frames keep 0.3. The cut search takes SEARCH_NEWTON_CAP (ops.geometry.topology.Solver): over the
+# samples' cut searches 0.1 takes 1410 iterations where 0.3 took 2737 (hand_on_hip key1 1200 -> 253), every cut
+# the same and every winner's energy to 1e-6 (hand_on_hip key1 5.478376 -> 5.478136); curled_tail's key1 with
+# five more T-junctions 77-483 -> 44-52 a candidate: short Newton steps along the barrier beat L-BFGS's there.
+# The frames at 0.1 took the same iterations (1536 -> 1534 over the samples) but settled elsewhere on hard
+# frames (held-out h00 -0.10 dB, h01 +0.25, h06 +0.10), so they keep theirs.
+NEWTON_CAP, SEARCH_NEWTON_CAP = 0.3, 0.1
 FREE_FLOOR = 1e-14  # a handle-free vertex's regularizer, at least this share of its cotangent diagonal
 MAX_BACKOFF = 16  # 1, 2, 4, .. up to this many before trying Newton again (over the samples: a cap of 0.3 and
 #                   16 kept the direct solves' L-BFGS minima; 0.5 and 64 cost the cut search up to 2.5x more L-BFGS steps)
@@ -142,7 +145,7 @@ class Deformer:
     """Prepares one template's energy once; `solve` deforms it to handle targets (projected Newton or L-BFGS)."""
 
     def __init__(self, rest: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
-                 method: str = "lbfgs", handle_weights: np.ndarray | None = None):
+                 method: str = "lbfgs", handle_weights: np.ndarray | None = None, newton_cap: float = NEWTON_CAP):
         """rest (n, 2) float64 pixels, faces (m, 3) int64 positive area, handles (h,) int64 vertex ids;
         method: one of SOLVERS; handle_weights (h,) scale mu per handle (None: 1 each)."""
         if method not in SOLVERS:
@@ -150,7 +153,7 @@ class Deformer:
         self.rest = np.asarray(rest, dtype=np.float64)
         self.faces = np.asarray(faces, dtype=np.int64)
         self.handles = np.asarray(handles, dtype=np.int64)
-        self.method, self.mu = method, float(mu)
+        self.method, self.mu, self.newton_cap = method, float(mu), float(newton_cap)
         self.norm = normalization(self.rest, self.faces)
         self.rest_n = self.norm.to_norm(self.rest)
         self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, mu, handle_weights)
@@ -258,7 +261,7 @@ class Deformer:
 
         Every step updates the L-BFGS pairs. "lbfgs" steps along the L-BFGS direction; "newton" along the
         projected Newton direction (ops.geometry.newton), except where the injectivity bound would cut that
-        step below NEWTON_CAP: far from a minimum (a pose far from the start) Newton aims past folds and then
+        step below self.newton_cap: far from a minimum (a pose far from the start) Newton aims past folds and then
         creeps along the barrier in tiny steps (the tail's direct solve to its curled pose: 920 steps to an
         energy of 289), where the Laplacian-preconditioned direction moves the whole sheet smoothly. A step the
         line search rejects is retried along the preconditioned gradient, with the pairs cleared.
@@ -276,14 +279,14 @@ class Deformer:
             if not eager and lbfgs_left == 0:
                 D, reach = self._newton_direction(X, G)
                 cap = min(1.0, reach)
-                if cap < NEWTON_CAP:  # Newton meets the barrier: L-BFGS for a while, longer each time in a row
+                if cap < self.newton_cap:  # Newton meets the barrier: L-BFGS for a while, longer each time in a row
                     backoff = min(2 * backoff or 1, MAX_BACKOFF)
                     lbfgs_left = backoff
                 else:
                     backoff, newton_step = 0, True
             elif lbfgs_left:
                 lbfgs_left -= 1
-            if D is None or cap < NEWTON_CAP:
+            if D is None or cap < self.newton_cap:
                 PG = self.precondition(G) if PG is None else PG
                 D = -self._direction(G, PG, hist)
                 if np.vdot(D, G) >= 0:  # not a descent direction: restart from the preconditioned gradient

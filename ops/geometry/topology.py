@@ -60,7 +60,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ops.geometry.deform import Deformer, count_flipped
+from ops.geometry.deform import SEARCH_NEWTON_CAP, Deformer, count_flipped
 from ops.geometry.implied_cut import implied_labels, switches_of
 from ops.geometry.mesh import split_fans
 from ops.geometry.polygon import project_to_polyline
@@ -228,6 +228,7 @@ class Solver:
     max_iter: int = 5000
     region_budget_s: float | None = None  # wall-clock seconds per region's search; None: no limit
     method: str = "newton"  # Deformer's method (ops.geometry.deform.SOLVERS)
+    newton_cap: float = SEARCH_NEWTON_CAP  # Newton's shortest step before L-BFGS's (ops.geometry.deform)
 
 
 def pose_path(pose_self: np.ndarray, pose_other: np.ndarray, parents: np.ndarray, steps: int = PATH_STEPS) -> list:
@@ -250,7 +251,8 @@ def prepare(base: TemplateBase, assignments: list[Assignment], solver: Solver = 
     """The incised template of `assignments` and its Deformer (None when its energy cannot be set up)."""
     inc = incise(base, assignments)
     try:
-        return inc, Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method)
+        return inc, Deformer(inc.rest, inc.faces, inc.handles, solver.mu, solver.method,
+                             newton_cap=solver.newton_cap)
     except _SOLVE_ERRORS:
         return inc, None
 
@@ -478,7 +480,7 @@ def region_key(refined: RefinedMasks, r: int, pose_self: np.ndarray, targets: li
                                                       np.asarray(refined.front_bones[q], np.int64)))):
         h.update(str(a.shape).encode())
         h.update(np.ascontiguousarray(a).tobytes())
-    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS)
+    h.update(repr((mode, solver.mu, solver.grad_tol, solver.max_iter, solver.method, PATH_STEPS, solver.newton_cap)
                   + (("implied",) if implied else ())).encode())
     return h.hexdigest()[:24]
 
