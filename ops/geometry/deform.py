@@ -8,10 +8,10 @@ injectivity-capped line search:
   steps (ops.geometry.newton: each face's Hessian projected to positive
   semi-definite, the sparse system refactorized per iterate). Where the
   injectivity bound would cut a Newton step below its newton_cap (0.3; the
-  cut search's 0.1, SEARCH_NEWTON_CAP) the step is L-BFGS's instead, for 1, 2, 4 .. MAX_BACKOFF iterations before Newton is
-  tried again: far from a minimum (a pose far from the start) Newton aims
-  through folds and then creeps along the barrier into a crumpled minimum (the
-  tail's direct solve to its curled pose: 920 steps to an energy of 289),
+  cut search's 0.1, SEARCH_NEWTON_CAP) the step is L-BFGS's instead, for 1,
+  2, 4 .. MAX_BACKOFF iterations before Newton is tried again: far from a
+  minimum (a pose far from the start) Newton aims through folds and then
+  creeps along the barrier into a crumpled minimum (the tail's direct solve to its curled pose: 920 steps to an energy of 289),
   where the Laplacian-preconditioned direction moves the whole sheet smoothly.
   Near a minimum (each warm cut candidate) it takes 5-15x fewer iterations.
   A full Newton step the line search accepts is doubled while the energy keeps

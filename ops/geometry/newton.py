@@ -65,8 +65,8 @@ class NewtonSystem:
         Per face, the symmetric Dirichlet term's Hessian in the entries M = (p, q, r, s) of J^T is
         2 (1 + det^-2) I - 4 det^-3 (M c^T + c M^T) + 6 |M|^2 det^-4 c c^T - 2 |M|^2 det^-3 D2, c = d det / dM,
         D2 = d2 det / dM2 (ops.geometry.energy.SymmetricDirichlet.face_hessians), plus the twist projection's
-        -lambda t t^T; the corner block A^T H A is then two precomputed (21,) blocks scaled and three outer
-        products of 6-vectors A^T M, A^T c, A^T t: no per-face 4x4 or 6x6 product per iterate."""
+        -lambda t t^T; the corner block A^T H A is then two precomputed (21,) blocks scaled and outer products
+        of the 6-vectors A^T M, A^T c (and A^T t where a face is twisted): no per-face 4x4 or 6x6 product."""
         ef = self.energy_fn
         M = (ef.K @ X).reshape(-1, 4)
         p, q, r_, s = M.T
