@@ -11,8 +11,9 @@ injectivity-capped line search:
   cut search's 0.1, SEARCH_NEWTON_CAP) the step is L-BFGS's instead, for 1,
   2, 4 .. MAX_BACKOFF iterations before Newton is tried again: far from a
   minimum (a pose far from the start) Newton aims through folds and then
-  creeps along the barrier into a crumpled minimum (the tail's direct solve to its curled pose: 920 steps to an energy of 289),
-  where the Laplacian-preconditioned direction moves the whole sheet smoothly.
+  creeps along the barrier into a crumpled minimum (the tail's direct solve
+  to its curled pose: 920 steps to an energy of 289), where the
+  Laplacian-preconditioned direction moves the whole sheet smoothly.
   Near a minimum (each warm cut candidate) it takes 5-15x fewer iterations.
   A full Newton step the line search accepts is doubled while the energy keeps
   falling (within the injectivity bound): where a limb swings, the
