@@ -78,14 +78,15 @@ class NewtonSystem:
         u = self._to_corners(M)
         v = self._to_corners(np.stack([s, -r_, -q, p], axis=1))
         # the rank-one terms g (u v^T + v u^T) + k v v^T = y v^T + v y^T with y = g u + k / 2 v
-        inv3 = w * inv ** 3
+        cube = inv ** 3
+        inv3 = w * cube
         y = (-4.0 * inv3)[:, None] * u + (3.0 * fro * inv3 * inv)[:, None] * v
         local = (2.0 * w * (1.0 + inv * inv))[:, None] * self._AA
         local -= (2.0 * fro * inv3)[:, None] * self._AD
         local += (y @ first) * (v @ second)
         local += (v @ first) * (y @ second)
         if self.project:
-            twist = 2.0 - 2.0 * (fro - det) * inv ** 3
+            twist = 2.0 - 2.0 * (fro - det) * cube
             lam = np.maximum(-twist, 0.0)
             hit = np.flatnonzero(lam)
             if len(hit):  # only faces squashed below their rest size have a negative twist eigenvalue
