@@ -3,7 +3,9 @@
 Problems: a synthetic 384 x 384 character (a torso capsule with a forearm capsule drawn in front of it, one
 occlusion region per keyframe, the forearm swinging down between the keyframes; --odd gives its region one
 T-junction, the cusp search), or with --shots DIR every keyframe of the sample shots there (their refined
-masks computed first, not timed). Per keyframe and per solver, on the same problems:
+masks computed first, not timed; with --odd one more T-junction on every region with an even count, in the
+middle of its longest stretch without one, so that every region's cut is searched by its cusp: the test bed
+for a change to that search). Per keyframe and per solver, on the same problems:
 - search: optimize_topology (the template's cut search, scored along the motion), its CPU seconds, the
   deformation iterations it took, the topologies it deformed and the winner's energy;
 - texture: the textured template's solve to the other key pose (ops/appearance/lane.py texture_lane), from the
@@ -15,6 +17,7 @@ injectivity bound blocks it: the cut search's) and `lbfgs` (the Laplacian-precon
 frames, from the same starts: its iterations, seconds and the energy it reaches, in our energy.
 
     python benchmarks/bench_geometry.py [--odd] [--shots data_samples [--only arm_cross ...]] [--slim]
+                                        [--search-only]
 
 Times are CPU seconds of this process (the machine is shared: wall times are noise).
 Target: topology optimization + 9 frames, both keyframes of the synthetic character, <= 5 s.
@@ -24,6 +27,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -76,8 +80,25 @@ def synthetic_problems(odd: bool) -> list[tuple]:
             for k, (me, other) in enumerate([(POSE0, POSE1), (POSE1, POSE0)])]
 
 
-def shot_problems(root: Path, only: list[str] | None) -> list[tuple]:
-    """The same for every keyframe of the shots under root: refined masks as the pipeline computes them."""
+def one_more_junction(refined: RefinedMasks) -> RefinedMasks:
+    """`refined` with one more T-junction on every region whose count is even: mid-way along its longest stretch
+    of boundary without one (at its first vertex where it has none), so that every region's count is odd."""
+    junctions = []
+    for boundary, jn in zip(refined.boundaries, refined.junctions):
+        jn, n = np.unique(np.asarray(jn, np.int64)), len(boundary)
+        if len(jn) % 2 == 0 and len(jn):
+            gaps = np.diff(np.r_[jn, jn[0] + n])
+            g = int(np.argmax(gaps))
+            jn = np.unique(np.r_[jn, (jn[g] + gaps[g] // 2) % n])
+        elif len(jn) == 0:
+            jn = np.zeros(1, np.int64)
+        junctions.append(jn)
+    return replace(refined, junctions=junctions)
+
+
+def shot_problems(root: Path, only: list[str] | None, odd: bool = False) -> list[tuple]:
+    """The same for every keyframe of the shots under root: refined masks as the pipeline computes them (odd:
+    one_more_junction's)."""
     from ops.segmentation.masks import build_masks
     from ops.segmentation.refine import refine_masks
     from ops.shotio.image_io import read_image, to_rgba
@@ -101,6 +122,7 @@ def shot_problems(root: Path, only: list[str] | None) -> list[tuple]:
             masks = build_masks(to_rgba(read_image(shot.keyframes[k])), shot.key_pose(k), shot.skeleton,
                                 mask(fg) if fg else None, occ, source=shot.keyframes[k], occlusion="hybrid")
             refined = refine_masks(masks, shot.t_junctions[k], shot.key_pose(k), shot.skeleton, shot.key_pose(other))
+            refined = one_more_junction(refined) if odd else refined
             out.append((f"{d.name} key{k}", refined, shot.key_pose(k), shot.key_pose(other), shot.skeleton,
                         shot.segment_poses(0), k))
         print(f"  {d.name}: masks ready", file=sys.stderr, flush=True)
@@ -162,8 +184,11 @@ def slim_frames(template: Template, poses: np.ndarray, backward: bool, starts: l
     return iterations, cpu, worst, folds
 
 
-def run(problems: list[tuple], slim: bool) -> None:
-    """Print one line per keyframe and solver, then the totals per solver."""
+def run(problems: list[tuple], slim: bool, search_only: bool = False) -> None:
+    """Print one line per keyframe and solver, then the totals per solver (search_only: the Newton search, its
+    chosen cuts, nothing else)."""
+    if search_only:
+        return run_searches(problems)
     totals = {m: np.zeros(6) for m in SOLVERS}
     print(f"{'problem':24s} {'solver':7s} | {'search s':>8s} {'it':>6s} {'topos':>5s} {'energy':>8s} | "
           f"{'texture s':>9s} {'it':>5s} {'energy':>8s} | {'9 frames s':>10s} {'it':>5s} {'E max':>8s} {'folds':>5s}")
@@ -198,16 +223,33 @@ def run(problems: list[tuple], slim: bool) -> None:
     print(f"{'newton / lbfgs':28s} " + " ".join(f"{r:7.2f}" for r in ratio))
 
 
+def run_searches(problems: list[tuple]) -> None:
+    """Print per keyframe the Newton search's CPU seconds, iterations, topologies, energy and chosen cuts (the
+    switch vertices and labels of every region), then the totals: compare two versions' lines for the same cuts."""
+    total = np.zeros(2)
+    for name, refined, me, other, skeleton, _, _ in problems:
+        with IterationCount() as count:
+            tpl, search_s = cpu_timed(lambda: optimize_topology(refined, me, other, skeleton))
+        counts = [len(np.unique(j)) for j in refined.junctions]
+        cuts = [(s.tolist(), a.tolist()) for s, a in zip(tpl.cut_switches, tpl.cut_assignment)]
+        print(f"{name:32s} T-junctions {counts} | {search_s:6.2f} s {count.iterations:5d} it {tpl.trials:3d} topologies "
+              f"energy {tpl.energy:8.4f} | cuts {cuts}", flush=True)
+        total += [search_s, count.iterations]
+    print(f"\ntotal: {total[0]:.2f} CPU s, {total[1]:.0f} iterations")
+
+
 def main() -> None:
     """Parse flags and run."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--odd", action="store_true", help="synthetic: one T-junction in the region (the cusp search)")
+    ap.add_argument("--odd", action="store_true", help="synthetic: one T-junction in the region (the cusp search); "
+                    "with --shots: one more on every region with an even count")
     ap.add_argument("--shots", default=None, help="a folder of shots (e.g. data_samples) instead of the synthetic one")
     ap.add_argument("--only", nargs="*", default=None, help="with --shots: these shots only")
     ap.add_argument("--slim", action="store_true", help="also libigl's SLIM on the frames")
+    ap.add_argument("--search-only", action="store_true", help="only the Newton cut search, with the cuts it chose")
     args = ap.parse_args()
-    problems = shot_problems(Path(args.shots), args.only) if args.shots else synthetic_problems(args.odd)
-    run(problems, args.slim)
+    problems = shot_problems(Path(args.shots), args.only, args.odd) if args.shots else synthetic_problems(args.odd)
+    run(problems, args.slim, args.search_only)
 
 
 if __name__ == "__main__":
