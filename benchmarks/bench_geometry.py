@@ -188,7 +188,8 @@ def run(problems: list[tuple], slim: bool, search_only: bool = False) -> None:
     """Print one line per keyframe and solver, then the totals per solver (search_only: the Newton search, its
     chosen cuts, nothing else)."""
     if search_only:
-        return run_searches(problems)
+        run_searches(problems)
+        return
     totals = {m: np.zeros(6) for m in SOLVERS}
     print(f"{'problem':24s} {'solver':7s} | {'search s':>8s} {'it':>6s} {'topos':>5s} {'energy':>8s} | "
           f"{'texture s':>9s} {'it':>5s} {'energy':>8s} | {'9 frames s':>10s} {'it':>5s} {'E max':>8s} {'folds':>5s}")
