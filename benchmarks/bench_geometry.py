@@ -86,12 +86,12 @@ def one_more_junction(refined: RefinedMasks) -> RefinedMasks:
     junctions = []
     for boundary, jn in zip(refined.boundaries, refined.junctions):
         jn, n = np.unique(np.asarray(jn, np.int64)), len(boundary)
-        if len(jn) % 2 == 0 and len(jn):
+        if len(jn) == 0:
+            jn = np.zeros(1, np.int64)
+        elif len(jn) % 2 == 0:
             gaps = np.diff(np.r_[jn, jn[0] + n])
             g = int(np.argmax(gaps))
             jn = np.unique(np.r_[jn, (jn[g] + gaps[g] // 2) % n])
-        elif len(jn) == 0:
-            jn = np.zeros(1, np.int64)
         junctions.append(jn)
     return replace(refined, junctions=junctions)
 
