@@ -10,6 +10,7 @@ import numpy as np
 from ops import preview
 from ops.blending.contact_sheet import matrix_contact_sheet
 from ops.blending.image_matrix import alpha_grid, network_calls_bound
+from ops.blending.key_fallback import with_key_fallback
 from ops.blending.local_alpha import local_frames
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
@@ -166,6 +167,12 @@ def _frames_of(env: StageEnv, s: int) -> StageResult:
         seq0, seq1 = _sides(env, s)
         frames, moved = local_frames(frames, seq0, seq1, matrix, matrix.alphas[chosen.alpha_index], strength)
         meta["local_alpha_share"] = [round(float(m), 4) for m in moved]
+    sigma = env.settings.key_fallback
+    if sigma > 0:
+        seq0, seq1 = _sides(env, s)
+        frames, share = with_key_fallback(frames, seq0, seq1, matrix.times,
+                                         lambda: env.resource("rife").load(), sigma)
+        meta["key_fallback_share"] = [round(float(x), 4) for x in share]
     out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
     sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
                                  paths.diagonal.alpha_index, thumb=72,
@@ -198,7 +205,7 @@ def segment_stages(s: int) -> list[StageDef]:
         stage(f"seg{s}/rife_matrix", _rife_matrix(s), resources=("rife",)),
         stage(f"seg{s}/quality_metrics", _quality(s)),
         stage(f"seg{s}/optimal_path", _paths(s), checks={"path_endpoints_and_monotone_t": _check_path}),
-        stage(f"seg{s}/frames", _frames(s)),
+        stage(f"seg{s}/frames", _frames(s), resources=("rife",)),
     ]
 
 

@@ -10,7 +10,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ops.blending.image_matrix import alpha_grid, build_image_matrix
+from ops.blending.image_matrix import alpha_grid
+from ops.blending.key_fallback import interpolate_keys
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import interpolation_quality, quality_inputs
@@ -25,22 +26,9 @@ if TYPE_CHECKING:
 METHODS = ("ours", "ours_diagonal", "single_layer", "rife_direct", "cross_dissolve", "held_drawing")
 
 
-def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
-    """Smallest bisection depth whose grid holds every t (else max_depth, nearest alpha used)."""
-    for d in range(1, max_depth + 1):
-        scaled = np.asarray(times) * 2**d
-        if np.allclose(scaled, np.round(scaled), atol=1e-9):
-            return d
-    return max_depth
-
-
 def rife_direct(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife) -> np.ndarray:
     """Frame interpolation alone: RIFE bisection between the keyframes (H, W, 4) to each t -> (T, H, W, 4)."""
-    depth = dyadic_depth(times)
-    m = build_image_matrix(key0[None], key1[None], np.zeros(1), rife, depth=depth)
-    grid = alpha_grid(depth)
-    idx = np.abs(grid[None, :] - np.asarray(times)[:, None]).argmin(1)
-    return m.frames[0, idx].astype(np.float32)
+    return interpolate_keys(key0, key1, times, rife)
 
 
 def cross_dissolve(key0: np.ndarray, key1: np.ndarray, times: np.ndarray) -> np.ndarray:

@@ -114,7 +114,7 @@ def _directly_stale(shot) -> dict[str, list[str]]:
 def test_a_resource_change_makes_exactly_its_users_stale(home, small_shot, tmp_path, monkeypatch):
     """Every field of every resource is in the provenance of the stages that use it, and of no other."""
     runs.run_shot(small_shot, tmp_path / "out")
-    users = {"rife": {"seg0/rife_matrix"},
+    users = {"rife": {"seg0/rife_matrix", "seg0/frames"},  # the frames: the keys' interpolation where no lane holds
              "inpainter": {"seg0/key0/textured_template", "seg0/key1/textured_template"}}
     changes = [("INBETWEEN_RIFE_BATCH", "4", "rife", "batch"), ("INBETWEEN_RIFE_WEIGHTS", "/elsewhere.pkl", "rife",
                                                                   "weights_path"),

@@ -1,0 +1,96 @@
+"""Where neither lane's texture can be trusted, the keys' own interpolation.
+
+The per-pixel alpha (ops/blending/local_alpha.py) takes each part of a frame from the lane whose texture is
+reliable there. Where both lanes are unreliable at once (both tear across an overlap the masks missed, or one
+tears where the other is inpainted), it has nothing to choose, and the frame shows the smear. RIFE applied to
+the two keys alone ghosts there instead of smearing, which is nearer the drawing: each interior frame takes it
+with the weight
+
+    w(x) = min(u0(x), u1(x)),
+
+u the lanes' unreliable masks (what q counts) blurred over FALLBACK_SIGMA px, blended premultiplied (so that
+over any paper the result is (1 - w) of the frame's composite plus w of RIFE's). The keys interpolated are the
+lanes' own first and last frames, the characters alone (alpha = coverage), as every lane is. A segment where
+both lanes are nowhere unreliable together (most shots) calls no network and is returned as it was; the keys
+are never changed.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+
+from ops.blending.image_matrix import alpha_grid, build_image_matrix
+from ops.blending.quality import unreliable_pixels
+from ops.types import DeformedSequence
+
+FALLBACK_SIGMA = 6.0  # px (twice the per-pixel alpha's): chosen on the held-out sets too, docs/method.md
+MIN_WEIGHT = 1.0 / 255  # a frame whose weight stays below this everywhere is left as it is
+# the network is called for a segment only where some frame's weights sum to this share of the frame: below it the
+# samples gained at most 0.03 dB (arm_cross, 0.16e-3 of its frame at most), and the seven calls cost about half
+# the image matrix's
+MIN_SHARE = 5e-4
+MAX_DEPTH = 3  # the keys' bisection depth at most (9 times, 7 network calls); other times take the nearest
+
+
+def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
+    """Smallest bisection depth whose grid holds every t (else max_depth, nearest alpha used)."""
+    for d in range(1, max_depth + 1):
+        scaled = np.asarray(times) * 2**d
+        if np.allclose(scaled, np.round(scaled), atol=1e-9):
+            return d
+    return max_depth
+
+
+def interpolate_keys(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife, max_depth: int = 6) -> np.ndarray:
+    """RIFE bisection between two keys (H, W, 4) to each t of times (T,) -> (T, H, W, 4) float32 (the grid's
+    nearest alpha where a t is not on a dyadic grid of depth max_depth or less)."""
+    depth = dyadic_depth(times, max_depth)
+    m = build_image_matrix(key0[None], key1[None], np.zeros(1), rife, depth=depth)
+    grid = alpha_grid(depth)
+    idx = np.abs(grid[None, :] - np.asarray(times)[:, None]).argmin(1)
+    return m.frames[0, idx].astype(np.float32)
+
+
+def fallback_weight(unreliable0: np.ndarray, unreliable1: np.ndarray, sigma: float = FALLBACK_SIGMA) -> np.ndarray:
+    """(H, W) float32 in [0, 1]: the lesser of the two (H, W) bool unreliable masks blurred over sigma px (the
+    kernel cut at 3 sigma); 0 wherever either lane is reliable within 3 sigma."""
+    size = 2 * int(np.ceil(3 * sigma)) + 1
+    u0 = cv2.GaussianBlur(unreliable0.astype(np.float32), (size, size), sigma)
+    u1 = cv2.GaussianBlur(unreliable1.astype(np.float32), (size, size), sigma)
+    return np.minimum(u0, u1)
+
+
+def mix_premultiplied(frame: np.ndarray, other: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """(H, W, 4) straight-alpha frame with `weight` (H, W) of the straight-alpha `other` blended in, premultiplied:
+    composited over any paper, (1 - w) frame's composite + w other's."""
+    w = weight[..., None].astype(np.float32)
+    a = (1.0 - w) * frame[..., 3:] + w * other[..., 3:]
+    rgb = (1.0 - w) * frame[..., :3] * frame[..., 3:] + w * other[..., :3] * other[..., 3:]
+    out = np.array(frame, np.float32)
+    np.divide(rgb, a, out=out[..., :3], where=a > 0)
+    out[..., 3:] = a
+    return np.clip(out, 0.0, 1.0)
+
+
+def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSequence, times: np.ndarray,
+                      load_rife: Callable[[], object], sigma: float = FALLBACK_SIGMA) -> tuple[np.ndarray, np.ndarray]:
+    """The segment's frames (T, H, W, 4) with every interior frame's doubly unreliable pixels taken from RIFE's
+    interpolation of the keys (module docstring); times (T,) the segment's, 0 .. 1. Returns the frames and, per
+    frame, the share (T,) of its pixels whose weight is at least one half. load_rife() gives the network, called
+    only where some frame's weights sum to MIN_SHARE of the frame."""
+    out = np.array(frames, np.float32)
+    share = np.zeros(len(frames))
+    u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
+    weights = {t: fallback_weight(u0[t], u1[t], sigma) for t in range(1, len(frames) - 1)}
+    weights = {t: w for t, w in weights.items() if w.max() >= MIN_WEIGHT}
+    if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
+        return out, share
+    keys = interpolate_keys(np.asarray(seq0.images[0], np.float32), np.asarray(seq1.images[-1], np.float32),
+                            times, load_rife(), MAX_DEPTH)
+    for t, w in weights.items():
+        touched = w > 0  # elsewhere the frame stays bit for bit
+        out[t][touched] = mix_premultiplied(out[t], keys[t], w)[touched]
+        share[t] = float((w >= 0.5).mean())
+    return out, share

@@ -1,0 +1,92 @@
+"""The keys' own interpolation where neither lane is reliable (ops/blending/key_fallback.py)."""
+import numpy as np
+import pytest
+
+import ops.blending.key_fallback as kf
+from ops.blending.image_matrix import build_image_matrix
+from ops.blending.key_fallback import fallback_weight, interpolate_keys, mix_premultiplied, with_key_fallback
+from ops.evaluation.plate import over
+from ops.types import DeformedSequence
+from tests.ops.blending.test_image_matrix import disc_frames
+from tests.ops.blending.test_local_alpha import onnx  # noqa: F401  (the fixture)
+
+
+def _seq(images: np.ndarray, unreliable: np.ndarray) -> DeformedSequence:
+    n = len(images)
+    return DeformedSequence(np.linspace(0, 1, n), np.zeros((n, 1, 2)), images, unreliable, np.zeros(n),
+                            np.zeros(n, np.int64))
+
+
+def test_the_weight_is_the_lesser_lane_and_nothing_where_either_is_reliable():
+    u0, u1 = np.zeros((60, 60), bool), np.zeros((60, 60), bool)
+    u0[10:50, 10:50] = True
+    u1[10:50, 30:50] = True  # both unreliable on x 30-49 only
+    w = fallback_weight(u0, u1, sigma=2.0)
+    assert w.min() >= 0 and w.max() <= 1
+    np.testing.assert_array_equal(w, fallback_weight(u1, u0, sigma=2.0))  # symmetric
+    assert w[:, :24].max() == 0  # lane 1 reliable within 3 sigma of every pixel there
+    assert w[30, 40] > 0.99  # deep inside both
+    np.testing.assert_array_equal(fallback_weight(u0, np.zeros_like(u1)), 0)
+
+
+def test_the_premultiplied_mix_is_the_mix_of_the_composites_over_any_paper():
+    rng = np.random.default_rng(3)
+    a, b = rng.random((2, 16, 16, 4)).astype(np.float32)
+    a[0, :, 3] = 0  # transparent pixels: their stored colour must not leak
+    w = rng.random((16, 16)).astype(np.float32)
+    plate = rng.random((16, 16, 3)).astype(np.float32)
+    mixed = mix_premultiplied(a, b, w)
+    want = (1 - w[..., None]) * over(a[None], plate)[0] + w[..., None] * over(b[None], plate)[0]
+    np.testing.assert_allclose(over(mixed[None], plate)[0], want, atol=1e-5)
+    np.testing.assert_allclose(over(mix_premultiplied(a, b, np.zeros_like(w))[None], plate), over(a[None], plate),
+                               atol=1e-6)  # weight 0: the frame
+
+
+def test_reliable_lanes_and_small_specks_call_no_network_and_change_nothing():
+    frames = disc_frames([30, 40, 50])
+    none = np.zeros((3, 64, 96), bool)
+    half = none.copy()
+    half[:, :, 48:] = True  # one lane unreliable: the per-pixel alpha's case, not this one's
+    speck = none.copy()
+    speck[1, 30, 40] = True  # both lanes, one pixel: under MIN_SHARE of the frame (3 px here), not worth a call
+
+    def no_network():
+        raise AssertionError("the network was loaded")
+
+    for u0, u1 in ((none, none), (none, half), (speck, speck)):
+        out, share = with_key_fallback(frames, _seq(frames, u0), _seq(frames, u1), np.linspace(0, 1, 3), no_network)
+        np.testing.assert_array_equal(out, frames.astype(np.float32))
+        assert not share.any()
+
+
+def test_doubly_unreliable_pixels_take_the_keys_interpolation_and_the_keys_stay(monkeypatch):
+    frames = disc_frames([30, 40, 50, 60, 70])
+    bad = np.zeros((5, 64, 96), bool)
+    bad[:, :, 48:] = True  # both lanes, every frame, the keys included
+    red = np.zeros_like(frames, np.float32)
+    red[..., 0], red[..., 3] = 1.0, 1.0
+    calls = []
+    monkeypatch.setattr(kf, "interpolate_keys", lambda k0, k1, times, rife, depth: calls.append(times) or red)
+    out, share = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), np.linspace(0, 1, 5), lambda: None,
+                                   sigma=2.0)
+    assert len(calls) == 1  # one interpolation for the segment
+    np.testing.assert_array_equal(out[[0, 4]], frames[[0, 4]].astype(np.float32))
+    assert share[0] == share[4] == 0 and np.all((share[1:4] > 0.4) & (share[1:4] < 0.6))
+    np.testing.assert_allclose(out[1:4, :, 60:], red[1:4, :, 60:], atol=1e-6)  # deep in: the interpolation
+    np.testing.assert_array_equal(out[1:4, :, :40], frames[1:4, :, :40].astype(np.float32))  # far: untouched
+
+
+def test_interpolating_the_keys_is_the_bisection_of_the_image_matrix(onnx):  # noqa: F811
+    f = disc_frames([36, 52])
+    times = np.array([0.0, 0.25, 0.5, 0.75, 1.0])
+    got = interpolate_keys(f[0], f[1], times, onnx)
+    m = build_image_matrix(f[:1], f[1:], np.zeros(1), onnx, depth=2)
+    np.testing.assert_array_equal(got, m.frames[0].astype(np.float32))
+    coarse = interpolate_keys(f[0], f[1], times, onnx, max_depth=1)  # 1/4 and 3/4 are off the grid: nearest
+    np.testing.assert_array_equal(coarse[[0, 2, 4]], got[[0, 2, 4]])
+    assert not np.array_equal(coarse[1], got[1])
+
+
+@pytest.mark.parametrize("times, depth", [([0, 0.5, 1], 1), ([0, 0.25, 1], 2), ([0, 0.3, 1], 6)])
+def test_dyadic_depth(times, depth):
+    assert kf.dyadic_depth(np.array(times)) == depth
