@@ -10,9 +10,9 @@ with the weight
 
 u the lanes' unreliable masks (what q counts) blurred over FALLBACK_SIGMA px, blended premultiplied (so that
 over any paper the result is (1 - w) of the frame's composite plus w of RIFE's). The keys interpolated are the
-lanes' own first and last frames, the characters alone (alpha = coverage), as every lane is. A segment where
-both lanes are nowhere unreliable together (most shots) calls no network and is returned as it was; the keys
-are never changed.
+lanes' own first and last frames, the characters alone (alpha = coverage), as every lane is, by one network call
+at 1/2 whose flows are scaled to each time (the image matrix's scaled cells). A segment where no frame's weights
+sum to MIN_SHARE of the frame calls no network and is returned as it was; the keys are never changed.
 """
 from __future__ import annotations
 
@@ -28,10 +28,10 @@ from ops.types import DeformedSequence
 FALLBACK_SIGMA = 6.0  # px (twice the per-pixel alpha's): chosen on the held-out sets too, docs/method.md
 MIN_WEIGHT = 1.0 / 255  # a frame whose weight stays below this everywhere is left as it is
 # the network is called for a segment only where some frame's weights sum to this share of the frame: below it the
-# samples gained at most 0.03 dB (arm_cross, 0.16e-3 of its frame at most), and the seven calls cost about half
-# the image matrix's
+# samples gained at most 0.03 dB (arm_cross, 0.16e-3 of its frame at most), and the call and the network's load
+# are not worth it
 MIN_SHARE = 5e-4
-MAX_DEPTH = 3  # the keys' bisection depth at most (9 times, 7 network calls); other times take the nearest
+MAX_DEPTH = 3  # the keys' alpha grid at most 9 values (other times take the nearest); one network call, at 1/2
 
 
 def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
@@ -43,11 +43,14 @@ def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
     return max_depth
 
 
-def interpolate_keys(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife, max_depth: int = 6) -> np.ndarray:
-    """RIFE bisection between two keys (H, W, 4) to each t of times (T,) -> (T, H, W, 4) float32 (the grid's
-    nearest alpha where a t is not on a dyadic grid of depth max_depth or less)."""
+def interpolate_keys(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife, max_depth: int = 6,
+                     cells: str = "bisection") -> np.ndarray:
+    """RIFE between two keys (H, W, 4) to each t of times (T,) -> (T, H, W, 4) float32 (the grid's nearest alpha
+    where a t is not on a dyadic grid of depth max_depth or less). cells: "bisection" (recursive midpoints, RIFE
+    as it is used on its own) or "scaled" (one network call at 1/2, its flows scaled to each t, as the image
+    matrix's cells: ops/blending/image_matrix.py)."""
     depth = dyadic_depth(times, max_depth)
-    m = build_image_matrix(key0[None], key1[None], np.zeros(1), rife, depth=depth)
+    m = build_image_matrix(key0[None], key1[None], np.zeros(1), rife, depth=depth, cells=cells)
     grid = alpha_grid(depth)
     idx = np.abs(grid[None, :] - np.asarray(times)[:, None]).argmin(1)
     return m.frames[0, idx].astype(np.float32)
@@ -88,7 +91,7 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
         return out, share
     keys = interpolate_keys(np.asarray(seq0.images[0], np.float32), np.asarray(seq1.images[-1], np.float32),
-                            times, load_rife(), MAX_DEPTH)
+                            times, load_rife(), MAX_DEPTH, cells="scaled")
     for t, w in weights.items():
         touched = w > 0  # elsewhere the frame stays bit for bit
         out[t][touched] = mix_premultiplied(out[t], keys[t], w)[touched]

@@ -66,10 +66,10 @@ def test_doubly_unreliable_pixels_take_the_keys_interpolation_and_the_keys_stay(
     red = np.zeros_like(frames, np.float32)
     red[..., 0], red[..., 3] = 1.0, 1.0
     calls = []
-    monkeypatch.setattr(kf, "interpolate_keys", lambda k0, k1, times, rife, depth: calls.append(times) or red)
+    monkeypatch.setattr(kf, "interpolate_keys", lambda k0, k1, times, rife, depth, cells: calls.append(cells) or red)
     out, share = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), np.linspace(0, 1, 5), lambda: None,
                                    sigma=2.0)
-    assert len(calls) == 1  # one interpolation for the segment
+    assert calls == ["scaled"]  # one interpolation for the segment, one network call
     np.testing.assert_array_equal(out[[0, 4]], frames[[0, 4]].astype(np.float32))
     assert share[0] == share[4] == 0 and np.all((share[1:4] > 0.4) & (share[1:4] < 0.6))
     np.testing.assert_allclose(out[1:4, :, 60:], red[1:4, :, 60:], atol=1e-6)  # deep in: the interpolation
@@ -85,6 +85,9 @@ def test_interpolating_the_keys_is_the_bisection_of_the_image_matrix(onnx):  # n
     coarse = interpolate_keys(f[0], f[1], times, onnx, max_depth=1)  # 1/4 and 3/4 are off the grid: nearest
     np.testing.assert_array_equal(coarse[[0, 2, 4]], got[[0, 2, 4]])
     assert not np.array_equal(coarse[1], got[1])
+    scaled = interpolate_keys(f[0], f[1], times, onnx, cells="scaled")  # one call at 1/2, its flows scaled
+    np.testing.assert_allclose(scaled[2], got[2], atol=2e-3)  # the midpoint is that call's (stored in half)
+    np.testing.assert_allclose(scaled[[0, 4]], f, atol=2e-3)
 
 
 @pytest.mark.parametrize("times, depth", [([0, 0.5, 1], 1), ([0, 0.25, 1], 2), ([0, 0.3, 1], 6)])
