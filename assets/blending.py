@@ -162,14 +162,13 @@ def _frames_of(env: StageEnv, s: int) -> StageResult:
     T = len(matrix.times)
     frames = select_frames(matrix.frames, chosen.alpha_index, matrix.computed)
     meta = {"frames": T, "blend": blend, "cost": float(chosen.cost)}
-    strength = env.settings.local_alpha
-    if strength > 0 and matrix.masks is not None:
-        seq0, seq1 = _sides(env, s)
+    strength, sigma = env.settings.local_alpha, env.settings.key_fallback
+    local = strength > 0 and matrix.masks is not None
+    seq0, seq1 = _sides(env, s) if local or sigma > 0 else (None, None)
+    if local:
         frames, moved = local_frames(frames, seq0, seq1, matrix, matrix.alphas[chosen.alpha_index], strength)
         meta["local_alpha_share"] = [round(float(m), 4) for m in moved]
-    sigma = env.settings.key_fallback
-    if sigma > 0:
-        seq0, seq1 = _sides(env, s)
+    if sigma > 0:  # where neither lane is reliable: the keys' own interpolation (one network call, or none)
         frames, share = with_key_fallback(frames, seq0, seq1, matrix.times,
                                          lambda: env.resource("rife").load(), sigma)
         meta["key_fallback_share"] = [round(float(x), 4) for x in share]
