@@ -6,10 +6,17 @@ tears where the other is inpainted), it has nothing to choose, and the frame sho
 the two keys alone ghosts there instead of smearing, which is nearer the drawing: each interior frame takes it
 with the weight
 
-    w(x) = min(u0(x), u1(x)),
+    w(x) = max(min(b0(x), b1(x)), blur(m)(x)),
 
-u the lanes' unreliable masks (what q counts) blurred over FALLBACK_SIGMA px, blended premultiplied (so that
-over any paper the result is (1 - w) of the frame's composite plus w of RIFE's). The keys interpolated are the
+b0, b1 the lanes' unreliable masks u0, u1 (what q counts) blurred over FALLBACK_SIGMA px, blended premultiplied
+(so that over any paper the result is (1 - w) of the frame's composite plus w of RIFE's). The second term is
+where the two lanes' tears meet: each lane tears its own copy of a moving part, and the copies lie apart (r08's
+forearms unfolding: key0's lane streaks them across the chest while key1's fans them out at the shoulders). At a
+pixel only one lane tears, the per-pixel alpha takes the other, which is reliable there but draws the part
+elsewhere, so the part drops out of the frame. m is therefore both lanes' unreliable pixels (u0 | u1) within
+FALLBACK_SIGMA px of where min(b0, b1) reaches MEET_DENSITY: there both tears come from the keys' interpolation,
+which ghosts the part rather than dropping it. A lane that tears alone, far from the other's tears, keeps the
+per-pixel alpha's choice. The keys interpolated are the
 lanes' own first and last frames, the characters alone (alpha = coverage), as every lane is, by one network call
 at 1/2 whose flows are scaled to each time (the image matrix's scaled cells). A segment where no frame's weights
 sum to MIN_SHARE of the frame calls no network and is returned as it was; the keys are never changed.
@@ -32,6 +39,9 @@ MIN_WEIGHT = 1.0 / 255  # a frame whose weight stays below this everywhere is le
 # are not worth it
 MIN_SHARE = 5e-4
 MAX_DEPTH = 3  # the keys' alpha grid at most 9 values (other times take the nearest); one network call, at 1/2
+# the two lanes' tears meet where both blurred unreliable masks reach this (3 % of the kernel's mass: a few torn pixels
+# of each lane within a sigma of one another); chosen on the held-out sets too (docs/method.md)
+MEET_DENSITY = 0.03
 
 
 def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
@@ -56,13 +66,26 @@ def interpolate_keys(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife
     return m.frames[0, idx].astype(np.float32)
 
 
-def fallback_weight(unreliable0: np.ndarray, unreliable1: np.ndarray, sigma: float = FALLBACK_SIGMA) -> np.ndarray:
-    """(H, W) float32 in [0, 1]: the lesser of the two (H, W) bool unreliable masks blurred over sigma px (the
-    kernel cut at 3 sigma); 0 wherever either lane is reliable within 3 sigma."""
+def _blur(mask: np.ndarray, sigma: float) -> np.ndarray:
+    """(H, W) bool -> (H, W) float32 blurred over sigma px, the kernel cut at 3 sigma."""
     size = 2 * int(np.ceil(3 * sigma)) + 1
-    u0 = cv2.GaussianBlur(unreliable0.astype(np.float32), (size, size), sigma)
-    u1 = cv2.GaussianBlur(unreliable1.astype(np.float32), (size, size), sigma)
-    return np.minimum(u0, u1)
+    return cv2.GaussianBlur(mask.astype(np.float32), (size, size), sigma)
+
+
+def fallback_weight(unreliable0: np.ndarray, unreliable1: np.ndarray, sigma: float = FALLBACK_SIGMA,
+                    meet: float = MEET_DENSITY) -> np.ndarray:
+    """(H, W) float32 in [0, 1] from the lanes' (H, W) bool unreliable masks: the lesser of the two blurred over
+    sigma px, and, where the two blurred masks both reach `meet`, both lanes' unreliable pixels within sigma px of
+    there, blurred (module docstring). 0 wherever neither lane is unreliable within 3 sigma, and where one lane is
+    unreliable alone with no pixel of the other's within 7 sigma."""
+    b0, b1 = _blur(unreliable0, sigma), _blur(unreliable1, sigma)
+    weight = np.minimum(b0, b1)
+    meeting = weight >= meet
+    if not meeting.any():
+        return weight
+    reach = 2 * int(np.ceil(sigma)) + 1
+    near = cv2.dilate(meeting.astype(np.uint8), np.ones((reach, reach), np.uint8)) > 0
+    return np.maximum(weight, _blur((unreliable0 | unreliable1) & near, sigma))
 
 
 def mix_premultiplied(frame: np.ndarray, other: np.ndarray, weight: np.ndarray) -> np.ndarray:
@@ -79,8 +102,8 @@ def mix_premultiplied(frame: np.ndarray, other: np.ndarray, weight: np.ndarray) 
 
 def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSequence, times: np.ndarray,
                       load_rife: Callable[[], object], sigma: float = FALLBACK_SIGMA) -> tuple[np.ndarray, np.ndarray]:
-    """The segment's frames (T, H, W, 4) with every interior frame's doubly unreliable pixels taken from RIFE's
-    interpolation of the keys (module docstring); times (T,) the segment's, 0 .. 1. Returns the frames and, per
+    """The segment's frames (T, H, W, 4) with every interior frame's doubly unreliable pixels, and the tears of
+    either lane where they meet the other's, taken from RIFE's interpolation of the keys (module docstring); times (T,) the segment's, 0 .. 1. Returns the frames and, per
     frame, the share (T,) of its pixels whose weight is at least one half. load_rife() gives the network, called
     only where some frame's weights sum to MIN_SHARE of the frame."""
     out = np.array(frames, np.float32)

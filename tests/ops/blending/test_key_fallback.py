@@ -24,9 +24,32 @@ def test_the_weight_is_the_lesser_lane_and_nothing_where_either_is_reliable():
     w = fallback_weight(u0, u1, sigma=2.0)
     assert w.min() >= 0 and w.max() <= 1
     np.testing.assert_array_equal(w, fallback_weight(u1, u0, sigma=2.0))  # symmetric
-    assert w[:, :24].max() == 0  # lane 1 reliable within 3 sigma of every pixel there
+    # lane 0's tear reaches the meeting (x >= 30, less the blur) by sigma: its pixels further left keep lane 1
+    assert w[:, :18].max() == 0
     assert w[30, 40] > 0.99  # deep inside both
     np.testing.assert_array_equal(fallback_weight(u0, np.zeros_like(u1)), 0)
+    np.testing.assert_array_equal(fallback_weight(u0, u1, sigma=2.0, meet=2.0),  # never meeting: the lesser lane
+                                  np.minimum(*(fallback_weight(u, u, sigma=2.0) for u in (u0, u1))))
+
+
+def test_tears_that_meet_are_taken_whole_near_the_meeting_and_apart_they_are_left():
+    """Each lane tears its own copy of a part, side by side: the per-pixel alpha would drop the part; near where
+    the tears meet both come from the keys' interpolation. The same tears 40 px apart are the per-pixel alpha's."""
+    sigma = 3.0
+    u0, u1 = np.zeros((80, 120), bool), np.zeros((80, 120), bool)
+    u0[30:50, 20:50] = True
+    u1[30:50, 50:80] = True  # touching at x = 50, overlapping nowhere
+    w = fallback_weight(u0, u1, sigma=sigma)
+    lesser = np.minimum(*(fallback_weight(u, u, sigma=sigma) for u in (u0, u1)))
+    assert lesser[40, 47] < 0.25 and lesser[40, 53] < 0.25  # the lesser lane alone: little, a sigma into a tear
+    assert w[40, 47] > 0.9 and w[40, 53] > 0.9  # both tears near the meeting: the keys' interpolation
+    assert w.sum() > 2 * lesser.sum()
+    assert w[40, 20] < 0.05 and w[40, 79] < 0.05  # the tears' far ends stay the lanes'
+    assert np.all(w >= lesser - 1e-7)
+    far0, far1 = np.zeros_like(u0), np.zeros_like(u1)
+    far0[30:50, 5:35] = True
+    far1[30:50, 75:105] = True  # 40 px apart, more than 6 sigma
+    np.testing.assert_array_equal(fallback_weight(far0, far1, sigma=sigma), 0)
 
 
 def test_the_premultiplied_mix_is_the_mix_of_the_composites_over_any_paper():
