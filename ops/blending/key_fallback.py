@@ -18,8 +18,9 @@ FALLBACK_SIGMA px of where min(b0, b1) reaches MEET_DENSITY: there both tears co
 which ghosts the part rather than dropping it. A lane that tears alone, far from the other's tears, keeps the
 per-pixel alpha's choice. The keys interpolated are the
 lanes' own first and last frames, the characters alone (alpha = coverage), as every lane is, by one network call
-at 1/2 whose flows are scaled to each time (the image matrix's scaled cells). A segment where no frame's weights
-sum to MIN_SHARE of the frame calls no network and is returned as it was; the keys are never changed.
+at 1/2 whose flows are scaled to each time (the image matrix's scaled cells), on the box around every weighted
+pixel with CONTEXT_PX of context. A segment where no frame's weights sum to MIN_SHARE of the frame calls no network
+and is returned as it was; the keys are never changed.
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
+from ops.blending.crop import Box, coverage_box
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.quality import unreliable_pixels
 from ops.types import DeformedSequence
@@ -42,6 +44,10 @@ MAX_DEPTH = 3  # the keys' alpha grid at most 9 values (other times take the nea
 # the two lanes' tears meet where both blurred unreliable masks reach this (3 % of the kernel's mass: a few torn pixels
 # of each lane within a sigma of one another); chosen on the held-out sets too (docs/method.md)
 MEET_DENSITY = 0.03
+# the keys are interpolated on the box around the weighted pixels grown by this (snapped to RIFE's 32 px grid): room
+# for the flows of a part that the keys draw apart (r08's forearms move 40-50 px) and for the network's borders;
+# the whole frame cost arm_cross's frames stage 0.3 s of its 0.6
+CONTEXT_PX = 64
 
 
 def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
@@ -101,11 +107,14 @@ def mix_premultiplied(frame: np.ndarray, other: np.ndarray, weight: np.ndarray) 
 
 
 def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: DeformedSequence, times: np.ndarray,
-                      load_rife: Callable[[], object], sigma: float = FALLBACK_SIGMA) -> tuple[np.ndarray, np.ndarray]:
+                      load_rife: Callable[[], object], sigma: float = FALLBACK_SIGMA,
+                      context: int | None = CONTEXT_PX) -> tuple[np.ndarray, np.ndarray]:
     """The segment's frames (T, H, W, 4) with every interior frame's doubly unreliable pixels, and the tears of
-    either lane where they meet the other's, taken from RIFE's interpolation of the keys (module docstring); times (T,) the segment's, 0 .. 1. Returns the frames and, per
-    frame, the share (T,) of its pixels whose weight is at least one half. load_rife() gives the network, called
-    only where some frame's weights sum to MIN_SHARE of the frame."""
+    either lane where they meet the other's, taken from RIFE's interpolation of the keys (module docstring); times
+    (T,) the segment's, 0 .. 1. The keys are interpolated on the box around every weighted pixel grown by `context`
+    px (None: the whole frame). Returns the frames and, per frame, the share (T,) of its pixels whose weight is at
+    least one half. load_rife() gives the network, called only where some frame's weights sum to MIN_SHARE of the
+    frame."""
     out = np.array(frames, np.float32)
     share = np.zeros(len(frames))
     u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
@@ -113,10 +122,16 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     weights = {t: w for t, w in weights.items() if w.max() >= MIN_WEIGHT}
     if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
         return out, share
-    keys = interpolate_keys(np.asarray(seq0.images[0], np.float32), np.asarray(seq1.images[-1], np.float32),
+    shape = out.shape[1:3]
+    box = Box(0, shape[0], 0, shape[1]) if context is None else \
+        coverage_box(np.stack([w > 0 for w in weights.values()]), margin=context)
+    ys, xs = box.slices
+    keys = interpolate_keys(np.ascontiguousarray(seq0.images[0][ys, xs], np.float32),
+                            np.ascontiguousarray(seq1.images[-1][ys, xs], np.float32),
                             times, load_rife(), MAX_DEPTH, cells="scaled")
     for t, w in weights.items():
-        touched = w > 0  # elsewhere the frame stays bit for bit
-        out[t][touched] = mix_premultiplied(out[t], keys[t], w)[touched]
+        window = out[t][ys, xs]
+        touched = w[ys, xs] > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
+        window[touched] = mix_premultiplied(window, keys[t], w[ys, xs])[touched]
         share[t] = float((w >= 0.5).mean())
     return out, share

@@ -116,3 +116,28 @@ def test_interpolating_the_keys_is_the_bisection_of_the_image_matrix(onnx):  # n
 @pytest.mark.parametrize("times, depth", [([0, 0.5, 1], 1), ([0, 0.25, 1], 2), ([0, 0.3, 1], 6)])
 def test_dyadic_depth(times, depth):
     assert kf.dyadic_depth(np.array(times)) == depth
+
+
+def test_the_keys_interpolated_on_the_box_around_the_weights_match_the_whole_frame(onnx):  # noqa: F811
+    """The network sees the box around the weighted pixels plus its context, not the frame: near the same frames
+    where a disc moves 16 px inside the box, the frame outside the box bit for bit."""
+    frames = disc_frames([100, 108, 116], h=192, w=256, cy=96.0)
+    bad = np.zeros((3, 192, 256), bool)
+    bad[1, 88:104, 100:116] = True  # both lanes torn over the moving disc in the middle frame
+    seen = []
+
+    def network():
+        class Watch:  # the network, noting the size of what it is given
+            def __getattr__(self, name):
+                attr = getattr(onnx, name)
+                if name == "midpoint_flow_mask":
+                    return lambda a, b, *r, **k: seen.append(a.shape[-2:]) or attr(a, b, *r, **k)
+                return attr
+        return Watch()
+
+    times = np.linspace(0, 1, 3)
+    whole, _ = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), times, lambda: onnx, context=None)
+    boxed, _ = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), times, network, context=32)
+    assert seen and all(h < 192 and w < 256 for h, w in seen)
+    np.testing.assert_allclose(boxed, whole, atol=2.5 / 255)
+    np.testing.assert_array_equal(boxed[1, :, :16], frames[1, :, :16])
