@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ops import preview
-from ops.blending.contact_sheet import matrix_contact_sheet
+from ops.blending.contact_sheet import matrix_contact_sheet, output_row
 from ops.blending.image_matrix import alpha_grid, network_calls_bound
 from ops.blending.key_fallback import with_key_fallback
 from ops.blending.local_alpha import local_frames
@@ -168,14 +168,18 @@ def _frames_of(env: StageEnv, s: int) -> StageResult:
     if local:
         frames, moved = local_frames(frames, seq0, seq1, matrix, matrix.alphas[chosen.alpha_index], strength)
         meta["local_alpha_share"] = [round(float(m), 4) for m in moved]
+    taken = None
     if sigma > 0:  # where neither lane is reliable: the keys' own interpolation (one network call, or none)
-        frames, share = with_key_fallback(frames, seq0, seq1, matrix.times,
-                                         lambda: env.resource("rife").load(), sigma)
-        meta["key_fallback_share"] = [round(float(x), 4) for x in share]
+        frames, taken = with_key_fallback(frames, seq0, seq1, matrix.times,
+                                          lambda: env.resource("rife").load(), sigma)
+        meta["key_fallback_share"] = [round(float(x), 4) for x in taken.mean((1, 2))]
     out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
     sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
                                  paths.diagonal.alpha_index, thumb=72,
                                  computed=matrix.computed)
+    # under the grid, the frames as output: per-pixel alpha included, what the keys' interpolation drew tinted
+    marks = [(taken, preview.KEYS_TINT)] if taken is not None and taken.any() else []
+    sheet = np.concatenate([sheet, output_row(frames, thumb=72, marks=marks)])
     return StageResult(out, meta, sheet)
 
 

@@ -165,6 +165,7 @@ def frame_strip(frames: np.ndarray, max_frames: int = 9,
 
 INPAINTED_TINT = (0.15, 0.35, 1.0)  # blue: texture the drawing does not show (§5.1 inpainting)
 DISTORTED_TINT = (1.0, 0.1, 0.1)  # red: texture stretched or squashed past the renderer's limit (a tear)
+KEYS_TINT = (0.9, 0.1, 0.9)  # magenta: pixels RIFE's interpolation of the keys drew, neither lane being reliable
 
 
 LABEL_BAND = 18  # pixels above each image in side_by_side

@@ -85,3 +85,22 @@ def matrix_contact_sheet(matrix_frames: np.ndarray, alphas: np.ndarray, times: n
     _draw_path(sheet, diagonal_idx, thumb, DIAGONAL_COLOUR, inset=4)
     _draw_path(sheet, path_idx, thumb, PATH_COLOUR, inset=0)
     return sheet.astype(np.float32) / 255.0
+
+
+def output_row(frames: np.ndarray, thumb: int = 96,
+               marks: list[tuple[np.ndarray, tuple[float, float, float]]] = ()) -> np.ndarray:
+    """frames: (T, H, W, 4) the segment's output -> (thumb + 2 SHEET_PAD, width, 3) float32 band to put under
+    matrix_contact_sheet's grid (the same width and columns), labelled "out". marks: ((T, H, W) bool pixels,
+    (r, g, b) in [0, 1]) tinted half-way to that colour: what the output took from elsewhere than the path's cell."""
+    n_t = len(frames)
+    band = np.full((thumb + 2 * SHEET_PAD, contact_sheet_shape(n_t, 1, thumb)[1], 3), SHEET_GREY, np.uint8)
+    for t in range(n_t):
+        rgba = to_rgba(np.asarray(frames[t], np.float32)).copy()
+        for pixels, colour in marks:
+            hit = np.asarray(pixels[t], bool)
+            rgba[hit, :3] = 0.5 * rgba[hit, :3] + 0.5 * np.asarray(colour, np.float32)
+            rgba[hit, 3] = np.maximum(rgba[hit, 3], 0.5)  # a tint on paper shows too
+        x = _cell_origin(t, 0, thumb)[0]
+        band[SHEET_PAD:SHEET_PAD + thumb, x:x + thumb] = _thumbnail(rgba, thumb)
+    _label(band, "out", (2, SHEET_PAD + thumb // 2 + 4))
+    return band.astype(np.float32) / 255.0

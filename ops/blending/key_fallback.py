@@ -112,16 +112,16 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     """The segment's frames (T, H, W, 4) with every interior frame's doubly unreliable pixels, and the tears of
     either lane where they meet the other's, taken from RIFE's interpolation of the keys (module docstring); times
     (T,) the segment's, 0 .. 1. The keys are interpolated on the box around every weighted pixel grown by `context`
-    px (None: the whole frame). Returns the frames and, per frame, the share (T,) of its pixels whose weight is at
-    least one half. load_rife() gives the network, called only where some frame's weights sum to MIN_SHARE of the
-    frame."""
+    px (None: the whole frame). Returns the frames and, per frame, its pixels (T, H, W) bool whose weight is at least
+    one half (what the stage's preview tints). load_rife() gives the network, called only where some frame's
+    weights sum to MIN_SHARE of the frame."""
     out = np.array(frames, np.float32)
-    share = np.zeros(len(frames))
+    taken = np.zeros(out.shape[:3], bool)
     u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
     weights = {t: fallback_weight(u0[t], u1[t], sigma) for t in range(1, len(frames) - 1)}
     weights = {t: w for t, w in weights.items() if w.max() >= MIN_WEIGHT}
     if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
-        return out, share
+        return out, taken
     shape = out.shape[1:3]
     box = Box(0, shape[0], 0, shape[1]) if context is None else \
         coverage_box(np.stack([w > 0 for w in weights.values()]), margin=context)
@@ -133,5 +133,5 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
         window = out[t][ys, xs]
         touched = w[ys, xs] > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
         window[touched] = mix_premultiplied(window, keys[t], w[ys, xs])[touched]
-        share[t] = float((w >= 0.5).mean())
-    return out, share
+        taken[t] = w >= 0.5
+    return out, taken

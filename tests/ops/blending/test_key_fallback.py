@@ -77,9 +77,9 @@ def test_reliable_lanes_and_small_specks_call_no_network_and_change_nothing():
         raise AssertionError("the network was loaded")
 
     for u0, u1 in ((none, none), (none, half), (speck, speck)):
-        out, share = with_key_fallback(frames, _seq(frames, u0), _seq(frames, u1), np.linspace(0, 1, 3), no_network)
+        out, taken = with_key_fallback(frames, _seq(frames, u0), _seq(frames, u1), np.linspace(0, 1, 3), no_network)
         np.testing.assert_array_equal(out, frames.astype(np.float32))
-        assert not share.any()
+        assert taken.shape == frames.shape[:3] and not taken.any()
 
 
 def test_doubly_unreliable_pixels_take_the_keys_interpolation_and_the_keys_stay(monkeypatch):
@@ -90,11 +90,13 @@ def test_doubly_unreliable_pixels_take_the_keys_interpolation_and_the_keys_stay(
     red[..., 0], red[..., 3] = 1.0, 1.0
     calls = []
     monkeypatch.setattr(kf, "interpolate_keys", lambda k0, k1, times, rife, depth, cells: calls.append(cells) or red)
-    out, share = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), np.linspace(0, 1, 5), lambda: None,
+    out, taken = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), np.linspace(0, 1, 5), lambda: None,
                                    sigma=2.0)
     assert calls == ["scaled"]  # one interpolation for the segment, one network call
     np.testing.assert_array_equal(out[[0, 4]], frames[[0, 4]].astype(np.float32))
+    share = taken.mean((1, 2))  # the right half, less the blur's edge, taken at half weight or more
     assert share[0] == share[4] == 0 and np.all((share[1:4] > 0.4) & (share[1:4] < 0.6))
+    assert taken[1:4, :, 60:].all() and not taken[1:4, :, :40].any()
     np.testing.assert_allclose(out[1:4, :, 60:], red[1:4, :, 60:], atol=1e-6)  # deep in: the interpolation
     np.testing.assert_array_equal(out[1:4, :, :40], frames[1:4, :, :40].astype(np.float32))  # far: untouched
 

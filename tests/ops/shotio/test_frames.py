@@ -8,6 +8,7 @@ from ops.blending.contact_sheet import (
     _cell_origin,
     contact_sheet_shape,
     matrix_contact_sheet,
+    output_row,
 )
 from ops.blending.select import select_frames
 from ops.evaluation.metrics import psnr
@@ -104,6 +105,21 @@ def test_contact_sheet_shape_and_path_colours(tmp_path):
     x, y = _cell_origin(0, 2, thumb)
     np.testing.assert_allclose(sheet[y + 5, x - 2], 237 / 255)
     np.testing.assert_allclose(sheet[y + thumb // 2, x + 5], 128 / 255, atol=1e-6)
+
+
+def test_the_output_row_lines_up_with_the_grid_and_tints_the_marked_pixels():
+    T, H, W, thumb = 4, 30, 30, 32
+    frames = np.zeros((T, H, W, 4), np.float32)
+    frames[..., :3], frames[..., 3] = 0.5, 1.0  # grey, opaque
+    marked = np.zeros((T, H, W), bool)
+    marked[2] = True  # the third frame taken whole
+    row = output_row(frames, thumb=thumb, marks=[(marked, (1.0, 0.0, 1.0))])
+    assert row.shape == (thumb + 12, contact_sheet_shape(T, 1, thumb)[1], 3) and row.dtype == np.float32
+    for t in range(T):
+        x = _cell_origin(t, 0, thumb)[0]
+        want = [0.75, 0.25, 0.75] if t == 2 else [0.5, 0.5, 0.5]  # half-way to magenta
+        np.testing.assert_allclose(row[6 + thumb // 2, x + thumb // 2], want, atol=1 / 255)
+    np.testing.assert_allclose(row[6 + thumb // 2, _cell_origin(0, 0, thumb)[0] - 3], 237 / 255)  # the gap: grey
 
 
 def test_fully_transparent_pixels_carry_the_paper_in_every_frame_and_the_composite_is_unchanged(tmp_path):
