@@ -16,11 +16,12 @@ pixel only one lane tears, the per-pixel alpha takes the other, which is reliabl
 elsewhere, so the part drops out of the frame. m is therefore both lanes' unreliable pixels (u0 | u1) within
 FALLBACK_SIGMA px of where min(b0, b1) reaches MEET_DENSITY: there both tears come from the keys' interpolation,
 which ghosts the part rather than dropping it. A lane that tears alone, far from the other's tears, keeps the
-per-pixel alpha's choice. The keys interpolated are the
-lanes' own first and last frames, the characters alone (alpha = coverage), as every lane is, by one network call
-at 1/2 whose flows are scaled to each time (the image matrix's scaled cells), on the box around every weighted
-pixel with CONTEXT_PX of context. A segment where no frame's weights sum to MIN_SHARE of the frame calls no network
-and is returned as it was; the keys are never changed.
+per-pixel alpha's choice.
+
+The keys interpolated are the lanes' own first and last frames, the characters alone (alpha = coverage), as every
+lane is, by one network call at 1/2 whose flows are scaled to each time (the image matrix's scaled cells), on the
+box around every weighted pixel with CONTEXT_PX of context. A segment where no frame's weights sum to MIN_SHARE of
+the frame calls no network and is returned as it was; the keys are never changed.
 """
 from __future__ import annotations
 
