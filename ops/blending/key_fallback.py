@@ -16,7 +16,9 @@ pixel only one lane tears, the per-pixel alpha takes the other, which is reliabl
 elsewhere, so the part drops out of the frame. m is therefore both lanes' unreliable pixels (u0 | u1) within
 FALLBACK_SIGMA px of where min(b0, b1) reaches MEET_DENSITY: there both tears come from the keys' interpolation,
 which ghosts the part rather than dropping it. A lane that tears alone, far from the other's tears, keeps the
-per-pixel alpha's choice.
+per-pixel alpha's choice. RIFE ghosts badly too where the keys lie too far apart for its flow (a foot a stride
+away): there its two warped keys disagree while its fusion weighs both, and the meeting term leaves those pixels
+(within GHOST_SIGMA px) to the lanes.
 
 The keys interpolated are the lanes' own first and last frames, the characters alone (alpha = coverage), as every
 lane is, by one network call at 1/2 whose flows are scaled to each time (the image matrix's scaled cells), on the
@@ -33,6 +35,7 @@ import numpy as np
 from ops.blending.crop import Box, coverage_box
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.quality import unreliable_pixels
+from ops.blending.rife_onnx import scaled_flow_mask
 from ops.types import DeformedSequence
 
 FALLBACK_SIGMA = 6.0  # px (twice the per-pixel alpha's): chosen on the held-out sets too, docs/method.md
@@ -49,6 +52,11 @@ MEET_DENSITY = 0.03
 # for the flows of a part that the keys draw apart (r08's forearms move 40-50 px) and for the network's borders;
 # the whole frame cost arm_cross's frames stage 0.3 s of its 0.6
 CONTEXT_PX = 64
+# RIFE ghosts where its two warped keys differ by this much (premultiplied, in any channel) while its fusion mask
+# weighs both alike; the meeting term keeps off such pixels blurred over GHOST_SIGMA px. Chosen with the meeting's
+# density on every evaluated set (docs/method.md): the walks' feet stop being ghosted
+GHOST_DIFF = 0.3
+GHOST_SIGMA = 3.0
 
 
 def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
@@ -60,17 +68,40 @@ def dyadic_depth(times: np.ndarray, max_depth: int = 6) -> int:
     return max_depth
 
 
+def _keys_matrix(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife, max_depth: int, cells: str):
+    """The one-row image matrix between two keys (H, W, 4) and, per t of times (T,), the index (T,) of its alpha
+    (the grid's nearest)."""
+    depth = dyadic_depth(times, max_depth)
+    m = build_image_matrix(key0[None], key1[None], np.zeros(1), rife, depth=depth, cells=cells)
+    grid = alpha_grid(depth)
+    return m, np.abs(grid[None, :] - np.asarray(times)[:, None]).argmin(1)
+
+
 def interpolate_keys(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife, max_depth: int = 6,
                      cells: str = "bisection") -> np.ndarray:
     """RIFE between two keys (H, W, 4) to each t of times (T,) -> (T, H, W, 4) float32 (the grid's nearest alpha
     where a t is not on a dyadic grid of depth max_depth or less). cells: "bisection" (recursive midpoints, RIFE
     as it is used on its own) or "scaled" (one network call at 1/2, its flows scaled to each t, as the image
     matrix's cells: ops/blending/image_matrix.py)."""
-    depth = dyadic_depth(times, max_depth)
-    m = build_image_matrix(key0[None], key1[None], np.zeros(1), rife, depth=depth, cells=cells)
-    grid = alpha_grid(depth)
-    idx = np.abs(grid[None, :] - np.asarray(times)[:, None]).argmin(1)
+    m, idx = _keys_matrix(key0, key1, times, rife, max_depth, cells)
     return m.frames[0, idx].astype(np.float32)
+
+
+def ghosting(key0: np.ndarray, key1: np.ndarray, flow: np.ndarray, mask: np.ndarray, alpha: float) -> np.ndarray:
+    """(H, W) float32: how much RIFE's frame at alpha, from the keys (H, W, 4) straight RGBA, their midpoint's
+    flow (H, W, 4) px and fusion mask (H, W) (the weight of key0), ghosts: the largest channel difference of the
+    two keys warped there (premultiplied; bilinear, the sample point clamped to the frame, as RIFE's own blend),
+    times 4 m (1 - m) of the mask at alpha (1 where both weigh alike, 0 where one key alone is taken)."""
+    f, m = scaled_flow_mask(np.asarray(flow, np.float32).transpose(2, 0, 1)[None],
+                            np.asarray(mask, np.float32)[None, None], float(alpha))
+    h, w = key0.shape[:2]
+    xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
+    warped = []
+    for k, (u, v) in zip((key0, key1), ((f[0, 0], f[0, 1]), (f[0, 2], f[0, 3]))):
+        pre = np.concatenate((k[..., :3] * k[..., 3:], k[..., 3:]), -1).astype(np.float32)
+        warped.append(cv2.remap(pre, xs + u, ys + v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE))
+    m = m[0, 0]
+    return (np.abs(warped[0] - warped[1]).max(-1) * 4.0 * m * (1.0 - m)).astype(np.float32)
 
 
 def _blur(mask: np.ndarray, sigma: float) -> np.ndarray:
@@ -79,20 +110,28 @@ def _blur(mask: np.ndarray, sigma: float) -> np.ndarray:
     return cv2.GaussianBlur(mask.astype(np.float32), (size, size), sigma)
 
 
+def _weight_terms(unreliable0: np.ndarray, unreliable1: np.ndarray, sigma: float, meet: float
+                  ) -> tuple[np.ndarray, np.ndarray | None]:
+    """fallback_weight's two (H, W) float32 terms: the lesser blurred mask, and the tears that meet (None where
+    they do not)."""
+    b0, b1 = _blur(unreliable0, sigma), _blur(unreliable1, sigma)
+    lesser = np.minimum(b0, b1)
+    meeting = lesser >= meet
+    if not meeting.any():
+        return lesser, None
+    reach = 2 * int(np.ceil(sigma)) + 1
+    near = cv2.dilate(meeting.astype(np.uint8), np.ones((reach, reach), np.uint8)) > 0
+    return lesser, _blur((unreliable0 | unreliable1) & near, sigma)
+
+
 def fallback_weight(unreliable0: np.ndarray, unreliable1: np.ndarray, sigma: float = FALLBACK_SIGMA,
                     meet: float = MEET_DENSITY) -> np.ndarray:
     """(H, W) float32 in [0, 1] from the lanes' (H, W) bool unreliable masks: the lesser of the two blurred over
     sigma px, and, where the two blurred masks both reach `meet`, both lanes' unreliable pixels within sigma px of
-    there, blurred (module docstring). 0 wherever neither lane is unreliable within 3 sigma, and where one lane is
-    unreliable alone with no pixel of the other's within 7 sigma."""
-    b0, b1 = _blur(unreliable0, sigma), _blur(unreliable1, sigma)
-    weight = np.minimum(b0, b1)
-    meeting = weight >= meet
-    if not meeting.any():
-        return weight
-    reach = 2 * int(np.ceil(sigma)) + 1
-    near = cv2.dilate(meeting.astype(np.uint8), np.ones((reach, reach), np.uint8)) > 0
-    return np.maximum(weight, _blur((unreliable0 | unreliable1) & near, sigma))
+    there, blurred (module docstring; before RIFE's ghosts are kept off). 0 wherever neither lane is unreliable
+    within 3 sigma, and where one lane is unreliable alone with no pixel of the other's within 7 sigma."""
+    lesser, meeting = _weight_terms(unreliable0, unreliable1, sigma, meet)
+    return lesser if meeting is None else np.maximum(lesser, meeting)
 
 
 def mix_premultiplied(frame: np.ndarray, other: np.ndarray, weight: np.ndarray) -> np.ndarray:
@@ -119,7 +158,8 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     out = np.array(frames, np.float32)
     taken = np.zeros(out.shape[:3], bool)
     u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
-    weights = {t: fallback_weight(u0[t], u1[t], sigma) for t in range(1, len(frames) - 1)}
+    terms = {t: _weight_terms(u0[t], u1[t], sigma, MEET_DENSITY) for t in range(1, len(frames) - 1)}
+    weights = {t: lesser if meeting is None else np.maximum(lesser, meeting) for t, (lesser, meeting) in terms.items()}
     weights = {t: w for t, w in weights.items() if w.max() >= MIN_WEIGHT}
     if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
         return out, taken
@@ -127,12 +167,17 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     box = Box(0, shape[0], 0, shape[1]) if context is None else \
         coverage_box(np.stack([w > 0 for w in weights.values()]), margin=context)
     ys, xs = box.slices
-    keys = interpolate_keys(np.ascontiguousarray(seq0.images[0][ys, xs], np.float32),
-                            np.ascontiguousarray(seq1.images[-1][ys, xs], np.float32),
-                            times, load_rife(), MAX_DEPTH, cells="scaled")
-    for t, w in weights.items():
+    key0 = np.ascontiguousarray(seq0.images[0][ys, xs], np.float32)
+    key1 = np.ascontiguousarray(seq1.images[-1][ys, xs], np.float32)
+    m, idx = _keys_matrix(key0, key1, times, load_rife(), MAX_DEPTH, "scaled")
+    for t in weights:
+        lesser, meeting = (term[ys, xs] if term is not None else None for term in terms[t])
+        w = lesser
+        if meeting is not None:  # the tears that meet, less where RIFE itself ghosts
+            ghost = ghosting(key0, key1, m.flows[0], m.masks[0], m.alphas[idx[t]]) >= GHOST_DIFF
+            w = np.maximum(lesser, meeting * (1.0 - np.minimum(_blur(ghost, GHOST_SIGMA), 1.0)))
         window = out[t][ys, xs]
-        touched = w[ys, xs] > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
-        window[touched] = mix_premultiplied(window, keys[t], w[ys, xs])[touched]
-        taken[t] = w >= 0.5
+        touched = w > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
+        window[touched] = mix_premultiplied(window, m.frames[0, idx[t]].astype(np.float32), w)[touched]
+        taken[t][ys, xs] = w >= 0.5
     return out, taken

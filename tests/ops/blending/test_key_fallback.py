@@ -1,4 +1,6 @@
 """The keys' own interpolation where neither lane is reliable (ops/blending/key_fallback.py)."""
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -89,7 +91,14 @@ def test_doubly_unreliable_pixels_take_the_keys_interpolation_and_the_keys_stay(
     red = np.zeros_like(frames, np.float32)
     red[..., 0], red[..., 3] = 1.0, 1.0
     calls = []
-    monkeypatch.setattr(kf, "interpolate_keys", lambda k0, k1, times, rife, depth, cells: calls.append(cells) or red)
+
+    def keys_matrix(k0, k1, times, rife, depth, cells):  # red at every t; key0 alone in the fusion: no ghost
+        calls.append(cells)
+        cells_ = red[None, :, :k0.shape[0], :k0.shape[1]]
+        return (SimpleNamespace(frames=cells_, flows=np.zeros((1, *k0.shape)), masks=np.ones((1, *k0.shape[:2])),
+                                alphas=np.linspace(0, 1, 5)), np.arange(len(times)))
+
+    monkeypatch.setattr(kf, "_keys_matrix", keys_matrix)
     out, taken = with_key_fallback(frames, _seq(frames, bad), _seq(frames, bad), np.linspace(0, 1, 5), lambda: None,
                                    sigma=2.0)
     assert calls == ["scaled"]  # one interpolation for the segment, one network call
@@ -143,3 +152,49 @@ def test_the_keys_interpolated_on_the_box_around_the_weights_match_the_whole_fra
     assert seen and all(h < 192 and w < 256 for h, w in seen)
     np.testing.assert_allclose(boxed, whole, atol=2.5 / 255)
     np.testing.assert_array_equal(boxed[1, :, :16], frames[1, :, :16])
+
+
+def test_ghosting_is_where_the_warped_keys_differ_and_the_fusion_weighs_both():
+    a, b = np.zeros((8, 8, 4), np.float32), np.zeros((8, 8, 4), np.float32)
+    a[2, 3] = (0.2, 0.2, 0.2, 1.0)  # ink in key0 alone, premultiplied 0.2 and alpha 1
+    flow = np.zeros((8, 8, 4), np.float32)  # no motion: each key warped onto itself
+    both = kf.ghosting(a, b, flow, np.full((8, 8), 0.5, np.float32), 0.5)
+    np.testing.assert_allclose(both[2, 3], 1.0)  # alpha differs by 1, the two keys weigh alike
+    assert both[np.arange(8) != 2].max() == 0
+    np.testing.assert_allclose(kf.ghosting(a, b, flow, np.ones((8, 8), np.float32), 0.5), 0)  # key0 alone
+    np.testing.assert_allclose(kf.ghosting(a, a, flow, np.full((8, 8), 0.5, np.float32), 0.5), 0)  # agreeing keys
+
+
+@pytest.mark.parametrize("fusion, ghosted", [(1.0, False), (0.5, True)])
+def test_the_tears_that_meet_keep_off_where_rife_ghosts(monkeypatch, fusion, ghosted):
+    """Two tears side by side take the keys' interpolation, unless RIFE's warped keys disagree there while its
+    fusion weighs both (a ghost): then only the lesser lane's weight, near nothing beside the meeting, is left."""
+    h, w = 80, 120
+    frames = np.zeros((3, h, w, 4), np.float32)
+    frames[0, ..., 3] = 1.0  # key0 all ink, key1 blank: where both weigh in, the warps differ by 1
+    u0, u1 = np.zeros((3, h, w), bool), np.zeros((3, h, w), bool)
+    u0[1, 30:50, 20:50] = True
+    u1[1, 30:50, 50:80] = True
+
+    def keys_matrix(k0, k1, times, rife, depth, cells):
+        return (SimpleNamespace(frames=np.zeros((1, 3, *k0.shape)), flows=np.zeros((1, *k0.shape)),
+                                masks=np.full((1, *k0.shape[:2]), fusion), alphas=np.linspace(0, 1, 3)),
+                np.arange(len(times)))
+
+    monkeypatch.setattr(kf, "_keys_matrix", keys_matrix)
+    _, taken = with_key_fallback(frames, _seq(frames, u0), _seq(frames, u1), np.linspace(0, 1, 3), lambda: None,
+                                 sigma=3.0)
+    assert taken[1, 40, 47] != ghosted and taken[1, 40, 53] != ghosted
+
+
+def test_ghosting_warps_as_rifes_own_blend_does():
+    """OpenCV's remap (fast) against the warp RIFE's blend uses (ops/blending/rife_onnx.py), random flows."""
+    from ops.blending.rife_onnx import scaled_flow_mask, warp
+    rng = np.random.default_rng(0)
+    k0, k1 = rng.random((2, 40, 50, 4)).astype(np.float32)
+    flow = (rng.standard_normal((40, 50, 4)) * 5).astype(np.float32)
+    mask = rng.random((40, 50)).astype(np.float32)
+    pre = [np.concatenate((k[..., :3] * k[..., 3:], k[..., 3:]), -1).transpose(2, 0, 1)[None] for k in (k0, k1)]
+    f, m = scaled_flow_mask(flow.transpose(2, 0, 1)[None], mask[None, None], 0.375)
+    want = np.abs(warp(pre[0], f[:, :2]) - warp(pre[1], f[:, 2:4])).max(1)[0] * 4 * m[0, 0] * (1 - m[0, 0])
+    np.testing.assert_allclose(kf.ghosting(k0, k1, flow, mask, 0.375), want, atol=1e-5)
