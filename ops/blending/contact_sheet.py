@@ -12,6 +12,7 @@ SHEET_PAD = 6                       # pixels between thumbnails and around the g
 SHEET_LEFT = 56                     # label column for alpha
 SHEET_TOP = 22                      # label row for t
 SHEET_GREY = 237                    # 8-bit background between thumbnails
+MARK_TINT = 0.6                     # output_row: how far a fully weighted pixel is tinted toward its mark's colour
 
 
 def contact_sheet_shape(n_t: int, n_a: int, thumb: int) -> tuple[int, int, int]:
@@ -90,16 +91,17 @@ def matrix_contact_sheet(matrix_frames: np.ndarray, alphas: np.ndarray, times: n
 def output_row(frames: np.ndarray, thumb: int = 96,
                marks: list[tuple[np.ndarray, tuple[float, float, float]]] = ()) -> np.ndarray:
     """frames: (T, H, W, 4) the segment's output -> (thumb + 2 SHEET_PAD, width, 3) float32 band to put under
-    matrix_contact_sheet's grid (the same width and columns), labelled "out". marks: ((T, H, W) bool pixels,
-    (r, g, b) in [0, 1]) tinted half-way to that colour: what the output took from elsewhere than the path's cell."""
+    matrix_contact_sheet's grid (the same width and columns), labelled "out". marks: ((T, H, W) weights in [0, 1]
+    or bool, (r, g, b) in [0, 1]): each pixel tinted toward that colour by MARK_TINT times twice its weight (the
+    full tint from a weight of one half): what the output took from elsewhere than the path's cell."""
     n_t = len(frames)
     band = np.full((thumb + 2 * SHEET_PAD, contact_sheet_shape(n_t, 1, thumb)[1], 3), SHEET_GREY, np.uint8)
     for t in range(n_t):
         rgba = to_rgba(np.asarray(frames[t], np.float32)).copy()
-        for pixels, colour in marks:
-            hit = np.asarray(pixels[t], bool)
-            rgba[hit, :3] = 0.5 * rgba[hit, :3] + 0.5 * np.asarray(colour, np.float32)
-            rgba[hit, 3] = np.maximum(rgba[hit, 3], 0.5)  # a tint on paper shows too
+        for weights, colour in marks:
+            k = MARK_TINT * np.minimum(2.0 * np.asarray(weights[t], np.float32), 1.0)[..., None]
+            rgba[..., :3] = (1.0 - k) * rgba[..., :3] + k * np.asarray(colour, np.float32)
+            rgba[..., 3:] = np.maximum(rgba[..., 3:], k)  # a tint on paper shows too
         x = _cell_origin(t, 0, thumb)[0]
         band[SHEET_PAD:SHEET_PAD + thumb, x:x + thumb] = _thumbnail(rgba, thumb)
     _label(band, "out", (2, SHEET_PAD + thumb // 2 + 4))

@@ -152,11 +152,11 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     """The segment's frames (T, H, W, 4) with every interior frame's doubly unreliable pixels, and the tears of
     either lane where they meet the other's, taken from RIFE's interpolation of the keys (module docstring); times
     (T,) the segment's, 0 .. 1. The keys are interpolated on the box around every weighted pixel grown by `context`
-    px (None: the whole frame). Returns the frames and, per frame, its pixels (T, H, W) bool whose weight is at least
-    one half (what the stage's preview tints). load_rife() gives the network, called only where some frame's
-    weights sum to MIN_SHARE of the frame."""
+    px (None: the whole frame). Returns the frames and their weights (T, H, W) float32 in [0, 1] (0 at the keys and
+    wherever the frame was left as it was; what the stage's preview tints). load_rife() gives the network, called
+    only where some frame's weights sum to MIN_SHARE of the frame."""
     out = np.array(frames, np.float32)
-    taken = np.zeros(out.shape[:3], bool)
+    taken = np.zeros(out.shape[:3], np.float32)
     u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
     terms = {t: _weight_terms(u0[t], u1[t], sigma, MEET_DENSITY) for t in range(1, len(frames) - 1)}
     weights = {t: lesser if meeting is None else np.maximum(lesser, meeting) for t, (lesser, meeting) in terms.items()}
@@ -179,5 +179,5 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
         window = out[t][ys, xs]
         touched = w > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
         window[touched] = mix_premultiplied(window, m.frames[0, idx[t]].astype(np.float32), w)[touched]
-        taken[t][ys, xs] = w >= 0.5
+        taken[t][ys, xs] = w
     return out, taken

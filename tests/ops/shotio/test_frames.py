@@ -4,6 +4,7 @@ import pytest
 
 from ops.blending.contact_sheet import (
     DIAGONAL_COLOUR,
+    MARK_TINT,
     PATH_COLOUR,
     _cell_origin,
     contact_sheet_shape,
@@ -107,17 +108,17 @@ def test_contact_sheet_shape_and_path_colours(tmp_path):
     np.testing.assert_allclose(sheet[y + thumb // 2, x + 5], 128 / 255, atol=1e-6)
 
 
-def test_the_output_row_lines_up_with_the_grid_and_tints_the_marked_pixels():
+def test_the_output_row_lines_up_with_the_grid_and_tints_by_weight():
     T, H, W, thumb = 4, 30, 30, 32
     frames = np.zeros((T, H, W, 4), np.float32)
     frames[..., :3], frames[..., 3] = 0.5, 1.0  # grey, opaque
-    marked = np.zeros((T, H, W), bool)
-    marked[2] = True  # the third frame taken whole
-    row = output_row(frames, thumb=thumb, marks=[(marked, (1.0, 0.0, 1.0))])
+    weight = np.zeros((T, H, W), np.float32)
+    weight[1], weight[2] = 0.25, 1.0  # the second frame half tinted, the third fully (from a weight of one half)
+    row = output_row(frames, thumb=thumb, marks=[(weight, (1.0, 0.0, 1.0))])
     assert row.shape == (thumb + 12, contact_sheet_shape(T, 1, thumb)[1], 3) and row.dtype == np.float32
-    for t in range(T):
+    for t, k in enumerate([0.0, 0.5 * MARK_TINT, MARK_TINT, 0.0]):
         x = _cell_origin(t, 0, thumb)[0]
-        want = [0.75, 0.25, 0.75] if t == 2 else [0.5, 0.5, 0.5]  # half-way to magenta
+        want = [0.5 + 0.5 * k, 0.5 - 0.5 * k, 0.5 + 0.5 * k]  # toward magenta by k
         np.testing.assert_allclose(row[6 + thumb // 2, x + thumb // 2], want, atol=1 / 255)
     np.testing.assert_allclose(row[6 + thumb // 2, _cell_origin(0, 0, thumb)[0] - 3], 237 / 255)  # the gap: grey
 
