@@ -168,17 +168,17 @@ def _frames_of(env: StageEnv, s: int) -> StageResult:
     if local:
         frames, moved = local_frames(frames, seq0, seq1, matrix, matrix.alphas[chosen.alpha_index], strength)
         meta["local_alpha_share"] = [round(float(m), 4) for m in moved]
-    taken = None
+    fallback = None
     if sigma > 0:  # where neither lane is reliable: the keys' own interpolation (one network call, or none)
-        frames, taken = with_key_fallback(frames, seq0, seq1, matrix.times,
+        frames, fallback = with_key_fallback(frames, seq0, seq1, matrix.times,
                                           lambda: env.resource("rife").load(), sigma)
-        meta["key_fallback_share"] = [round(float(x), 4) for x in (taken >= 0.5).mean((1, 2))]
+        meta["key_fallback_share"] = [round(float(x), 4) for x in (fallback >= 0.5).mean((1, 2))]
     out = OutputFrames(matrix.times.copy(), matrix.alphas[chosen.alpha_index].copy(), frames, blend)
     sheet = matrix_contact_sheet(matrix.frames, matrix.alphas, matrix.times, paths.optimal.alpha_index,
                                  paths.diagonal.alpha_index, thumb=72,
                                  computed=matrix.computed)
     # under the grid, the frames as output: per-pixel alpha included, tinted by the keys' interpolation's weight
-    marks = [(taken, preview.KEYS_TINT)] if taken is not None and taken.any() else []
+    marks = [(fallback, preview.KEYS_TINT)] if fallback is not None and fallback.any() else []
     sheet = np.concatenate([sheet, output_row(frames, thumb=72, marks=marks)])
     return StageResult(out, meta, sheet)
 

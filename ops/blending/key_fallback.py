@@ -156,13 +156,13 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     wherever the frame was left as it was; what the stage's preview tints). load_rife() gives the network, called
     only where some frame's weights sum to MIN_SHARE of the frame."""
     out = np.array(frames, np.float32)
-    taken = np.zeros(out.shape[:3], np.float32)
+    weights_out = np.zeros(out.shape[:3], np.float32)
     u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
     terms = {t: _weight_terms(u0[t], u1[t], sigma, MEET_DENSITY) for t in range(1, len(frames) - 1)}
     weights = {t: lesser if meeting is None else np.maximum(lesser, meeting) for t, (lesser, meeting) in terms.items()}
     weights = {t: w for t, w in weights.items() if w.max() >= MIN_WEIGHT}
     if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
-        return out, taken
+        return out, weights_out
     shape = out.shape[1:3]
     box = Box(0, shape[0], 0, shape[1]) if context is None else \
         coverage_box(np.stack([w > 0 for w in weights.values()]), margin=context)
@@ -179,5 +179,5 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
         window = out[t][ys, xs]
         touched = w > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
         window[touched] = mix_premultiplied(window, m.frames[0, idx[t]].astype(np.float32), w)[touched]
-        taken[t][ys, xs] = w
-    return out, taken
+        weights_out[t][ys, xs] = w
+    return out, weights_out
