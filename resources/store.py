@@ -35,6 +35,7 @@ import numpy as np
 
 from ops import types as T
 from ops.shotio.image_io import read_image, write_image
+from ops.shotio.npz import read_npz
 
 # fields stored as images (H, W, C) float32 via OpenImageIO; stacks (N, H, W, C) as one file per image
 IMAGE_FIELDS = {"texture", "back_texture", "images", "frames"}
@@ -234,9 +235,7 @@ def read_value(path: Path) -> Any:
         import pandas as pd
 
         return pd.read_parquet(path / "table.parquet")
-    with np.load(path / "arrays.npz", allow_pickle=False) as z:
-        arrays = {k: z[k] for k in z.files}
-    return _load(path, "", arrays, meta)
+    return _load(path, "", read_npz(path / "arrays.npz"), meta)
 
 
 def read_meta(path: Path) -> dict | None:

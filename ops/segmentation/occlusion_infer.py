@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from ops.segmentation.skeleton_guide import GUIDE_CHANNELS
+from ops.shotio.npz import read_npz
 
 IN_CHANNELS = 3 + GUIDE_CHANNELS
 STRIDE = 16  # the input's sides must be multiples of this (four halvings)
@@ -60,8 +61,7 @@ def check_weights(path: Path, sha256: str, network: str = "occlusion", trainer: 
 
 def read_weights(path: str | Path) -> dict[str, np.ndarray]:
     """Every array of a weights .npz (no pickle), as float64 (the folding's precision)."""
-    with np.load(path, allow_pickle=False) as z:
-        return {k: z[k].astype(np.float64) for k in z.files}
+    return {k: v.astype(np.float64) for k, v in read_npz(path).items()}
 
 
 def plain_conv(raw: dict, name: str) -> tuple[np.ndarray, np.ndarray, int]:

@@ -30,6 +30,7 @@ from ops.segmentation.occlusion_infer import (  # noqa: F401  (re-exported for t
     check_weights,
     file_sha256,
 )
+from ops.shotio.npz import read_npz
 
 
 def _conv(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int = 1) -> nn.Sequential:
@@ -79,8 +80,7 @@ def save_weights(net: nn.Module, path: Path) -> str:
 
 def load_state(net: nn.Module, path: Path) -> nn.Module:
     """`net` with the state a save_weights file holds (checked by the caller), in eval mode."""
-    with np.load(path, allow_pickle=False) as z:
-        state = {k: torch.from_numpy(z[k]) for k in z.files}
+    state = {k: torch.from_numpy(v) for k, v in read_npz(path).items()}
     for k, v in net.state_dict().items():  # BatchNorm's integer step counters are not stored
         if k not in state and not v.dtype.is_floating_point:
             state[k] = v
