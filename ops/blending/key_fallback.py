@@ -35,7 +35,7 @@ import numpy as np
 from ops.blending.crop import Box, coverage_box
 from ops.blending.image_matrix import alpha_grid, build_image_matrix
 from ops.blending.quality import unreliable_pixels
-from ops.blending.rife_onnx import scaled_flow_mask
+from ops.blending.rife_onnx import scaled_flow_mask, warp
 from ops.types import DeformedSequence
 
 FALLBACK_SIGMA = 6.0  # px (twice the per-pixel alpha's): chosen on the held-out sets too, docs/method.md
@@ -90,18 +90,15 @@ def interpolate_keys(key0: np.ndarray, key1: np.ndarray, times: np.ndarray, rife
 def ghosting(key0: np.ndarray, key1: np.ndarray, flow: np.ndarray, mask: np.ndarray, alpha: float) -> np.ndarray:
     """(H, W) float32: how much RIFE's frame at alpha, from the keys (H, W, 4) straight RGBA, their midpoint's
     flow (H, W, 4) px and fusion mask (H, W) (the weight of key0), ghosts: the largest channel difference of the
-    two keys warped there (premultiplied; bilinear, the sample point clamped to the frame, as RIFE's own blend),
-    times 4 m (1 - m) of the mask at alpha (1 where both weigh alike, 0 where one key alone is taken)."""
+    two keys warped there (premultiplied, by RIFE's own blend's warp), times 4 m (1 - m) of the mask at alpha (1
+    where both weigh alike, 0 where one key alone is taken)."""
     f, m = scaled_flow_mask(np.asarray(flow, np.float32).transpose(2, 0, 1)[None],
                             np.asarray(mask, np.float32)[None, None], float(alpha))
-    h, w = key0.shape[:2]
-    xs, ys = np.meshgrid(np.arange(w, dtype=np.float32), np.arange(h, dtype=np.float32))
-    warped = []
-    for k, (u, v) in zip((key0, key1), ((f[0, 0], f[0, 1]), (f[0, 2], f[0, 3]))):
-        pre = np.concatenate((k[..., :3] * k[..., 3:], k[..., 3:]), -1).astype(np.float32)
-        warped.append(cv2.remap(pre, xs + u, ys + v, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE))
+    pre0, pre1 = (np.concatenate((k[..., :3] * k[..., 3:], k[..., 3:]), -1).transpose(2, 0, 1)[None]
+                  for k in (key0, key1))
+    diff = np.abs(warp(pre0, f[:, :2]) - warp(pre1, f[:, 2:4])).max(1)[0]
     m = m[0, 0]
-    return (np.abs(warped[0] - warped[1]).max(-1) * 4.0 * m * (1.0 - m)).astype(np.float32)
+    return (diff * 4.0 * m * (1.0 - m)).astype(np.float32)
 
 
 def _blur(mask: np.ndarray, sigma: float) -> np.ndarray:

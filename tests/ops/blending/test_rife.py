@@ -346,3 +346,28 @@ def test_onnx_runtime_without_a_writable_cache_falls_back_to_torch(tmp_path):
     assert r.runtime == "torch"
     with pytest.raises(ShotError, match="runtime"):
         R.load_rife(runtime="tensorflow")
+
+
+def test_the_host_warp_is_bilinear_sampling_with_the_point_clamped_to_the_frame():
+    """ops.blending.rife_onnx.warp (OpenCV's remap) against the definition, pixel by pixel: six channels (two
+    remaps), flows that reach past every border, a window of the frame from an origin."""
+    from ops.blending.rife_onnx import warp
+
+    rng = np.random.default_rng(5)
+    n, c, h, w = 2, 6, 9, 11
+    img = rng.random((n, c, h, w)).astype(np.float32)
+    origin, fh, fw = (2, 3), 5, 6
+    flow = (rng.standard_normal((n, 2, fh, fw)) * 6).astype(np.float32)
+    got = warp(img, flow, origin)
+    want = np.zeros((n, c, fh, fw), np.float32)
+    for i in range(n):
+        for y in range(fh):
+            for x in range(fw):
+                sx = min(max(origin[1] + x + flow[i, 0, y, x], 0.0), w - 1.0)
+                sy = min(max(origin[0] + y + flow[i, 1, y, x], 0.0), h - 1.0)
+                x0, y0 = int(np.floor(sx)), int(np.floor(sy))
+                x1, y1 = min(x0 + 1, w - 1), min(y0 + 1, h - 1)
+                fx, fy = sx - x0, sy - y0
+                want[i, :, y, x] = ((1 - fy) * ((1 - fx) * img[i, :, y0, x0] + fx * img[i, :, y0, x1])
+                                    + fy * ((1 - fx) * img[i, :, y1, x0] + fx * img[i, :, y1, x1]))
+    np.testing.assert_allclose(got, want, atol=1e-5)
