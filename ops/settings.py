@@ -41,9 +41,9 @@ class Settings:
         "of the lanes' unreliable texture (inpainted or torn, as q counts it) around each pixel, toward the "
         "reliable lane (ops/blending/local_alpha.py); 0 keeps one alpha per frame, as the paper."))
     key_fallback: float = field(default=6.0, metadata=_doc(
-        "Where both lanes' texture is unreliable at once (torn or inpainted in both), each interior frame takes "
-        "RIFE's interpolation of the two keys, weighted by the lesser of the lanes' unreliable masks blurred over "
-        "this many pixels (ops/blending/key_fallback.py); 0 turns it off."))
+        "Where both lanes' texture is unreliable at once (torn or inpainted in both), and where the two lanes' tears "
+        "meet but RIFE does not ghost, each interior frame takes RIFE's interpolation of the two keys, weighted by "
+        "the lanes' unreliable masks blurred over this many pixels (ops/blending/key_fallback.py); 0 turns it off."))
     supersample: int = field(default=2, metadata=_doc("Renderer supersampling factor per axis (anti-aliasing)."))
     template_mode: str = field(default="optimized",
                                metadata=_doc("'optimized' (2.5D template, §4.4) or 'single-layer' (ablation)."))

@@ -127,7 +127,11 @@ def fallback_weight(unreliable0: np.ndarray, unreliable1: np.ndarray, sigma: flo
     sigma px, and, where the two blurred masks both reach `meet`, both lanes' unreliable pixels within sigma px of
     there, blurred (module docstring; before RIFE's ghosts are kept off). 0 wherever neither lane is unreliable
     within 3 sigma, and where one lane is unreliable alone with no pixel of the other's within 7 sigma."""
-    lesser, meeting = _weight_terms(unreliable0, unreliable1, sigma, meet)
+    return _combined(*_weight_terms(unreliable0, unreliable1, sigma, meet))
+
+
+def _combined(lesser: np.ndarray, meeting: np.ndarray | None) -> np.ndarray:
+    """The weight from _weight_terms' two terms, before RIFE's ghosts are kept off."""
     return lesser if meeting is None else np.maximum(lesser, meeting)
 
 
@@ -156,7 +160,7 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     weights_out = np.zeros(out.shape[:3], np.float32)
     u0, u1 = unreliable_pixels(seq0), unreliable_pixels(seq1)
     terms = {t: _weight_terms(u0[t], u1[t], sigma, MEET_DENSITY) for t in range(1, len(frames) - 1)}
-    weights = {t: lesser if meeting is None else np.maximum(lesser, meeting) for t, (lesser, meeting) in terms.items()}
+    weights = {t: _combined(*terms[t]) for t in terms}
     weights = {t: w for t, w in weights.items() if w.max() >= MIN_WEIGHT}
     if not weights or max(float(w.sum()) for w in weights.values()) < MIN_SHARE * out[0, ..., 0].size:
         return out, weights_out

@@ -22,11 +22,15 @@ _RACE = "AST constructor recursion depth mismatch"
 
 def read_npz(path: str | Path) -> dict[str, np.ndarray]:
     """{name: array} of every array in the .npz at path (no pickle), read under the module's lock."""
-    for attempt in range(RETRIES + 1):
+    for _ in range(RETRIES):
         try:
-            with _PARSING, np.load(path, allow_pickle=False) as z:
-                return {k: z[k] for k in z.files}
+            return _read(path)
         except SystemError as e:
-            if _RACE not in str(e) or attempt == RETRIES:
+            if _RACE not in str(e):
                 raise
-    raise AssertionError("unreachable")
+    return _read(path)  # the last try's error is the caller's
+
+
+def _read(path: str | Path) -> dict[str, np.ndarray]:
+    with _PARSING, np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
