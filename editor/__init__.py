@@ -4,3 +4,5 @@
 app over the same run machinery as the CLI (assets/run/); the page is plain ES modules and canvas
 (editor/static/), with no build step. Nothing in assets/, resources/ or ops/ imports this package.
 """
+
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)

@@ -6,6 +6,8 @@ import os
 
 import pytest
 
+import ops  # noqa: F401  (pins the numerical libraries' SIMD level before any test module loads NumPy: ops/simd.py)
+
 
 @pytest.fixture(autouse=True)
 def _no_exec_in_the_test_process(monkeypatch):

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from ops import simd
 from ops.errors import ShotError
 from ops.settings import Settings
 from ops.shotio.frames import DEFAULT_EXPORTS
@@ -143,7 +144,8 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
                   "times": [float(t) for t in frames.times], "alphas": [float(a) for a in frames.alphas],
                   "keys": shot.n_keys, "key_frames": list(shot.key_frames),
                   "blend": settings.blend if segments else "none", "template": settings.template_mode, "stages": stages,
-                  "frames_version": st.hash("inbetween_frames", partition), "segments": segments}
+                  "frames_version": st.hash("inbetween_frames", partition), "segments": segments,
+                  "simd": simd.state()}  # this process's; farm workers pin their own (ops/simd.py)
         if segments:  # the first segment's, where a two-key (v1) shot always had it
             report["path"] = {k: v for k, v in segments[0].items() if k not in ("keys", "frames", "lane_agreement_db")}
         report["seconds_total"] = round(time.perf_counter() - start, 3)  # so far: re-stamped once written
