@@ -29,6 +29,9 @@ the editor is then started as `python -m editor SHOT --port 0 --no-browser` in i
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import os

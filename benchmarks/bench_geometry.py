@@ -24,6 +24,9 @@ Target: topology optimization + 9 frames, both keyframes of the synthetic charac
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import sys
 import time

@@ -15,6 +15,9 @@ strokes, Telea's fill, auto's fill, and the truth).
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import sys
 from dataclasses import replace

@@ -24,6 +24,9 @@ precision, and the proposals' CPU time per keyframe.
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import os

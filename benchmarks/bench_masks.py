@@ -23,6 +23,9 @@ Target: mean IoU >= 0.95 and every character >= 0.92.
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import sys
 import time

@@ -28,6 +28,9 @@ with each predictor and of RIFE applied directly to the keys.
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import os
 import statistics

@@ -19,6 +19,9 @@ cell), and each weight's path is found twice: from the run's q, and from the q o
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import re
 import sys

@@ -33,6 +33,9 @@ rerun <= 1.5 s, Dagster overhead of a cold run <= 2 s, peak RSS of batch <= 1.5 
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import os
@@ -124,20 +127,39 @@ def cli(args: list[str], home: Path) -> dict:
 def rife_direct(shot: Path, out: Path, home: Path, runtime: str = "torch") -> dict:
     """RIFE-direct on a shot as a new process (see _RIFE_DIRECT) with the network run by `runtime`: wall and CPU
     seconds, peak RSS. The ONNX export is read from the user's cache (resources/rife.py), as the pipeline does."""
+    native = _native_simd()
     try:
         from resources.rife import default_cache_dir
     except ImportError:  # code from before the ONNX runtime: torch only
-        return process(_RIFE_DIRECT, [str(shot), str(out), runtime, ""], home)
-    return process(_RIFE_DIRECT, [str(shot), str(out), runtime, str(default_cache_dir())], home)
+        return process(_RIFE_DIRECT, [str(shot), str(out), runtime, ""], home, native)
+    return process(_RIFE_DIRECT, [str(shot), str(out), runtime, str(default_cache_dir())], home, native)
 
 
-def process(code: str, args: list[str], home: Path) -> dict:
-    """Run `python -c code json(args)` as a new process with its own INBETWEEN_HOME; wall and CPU seconds,
-    peak RSS (tree sum and largest process), and whether it imported torch and Dagster (for the CLI)."""
+def _native_simd() -> dict[str, str | None]:
+    """Environment changes that give RIFE-direct the CPU's own SIMD kernels (None: unset): the baseline is RIFE
+    at its fastest on this machine, where our runs hold the libraries at AVX2 (ops/simd.py; PyTorch's RIFE takes
+    about 1.2x the CPU there)."""
+    try:
+        from ops import simd
+    except ImportError:  # code from before the pin
+        return {}
+    pinned = simd.settings_for(simd.cpu_flags())
+    return {"INBETWEEN_SIMD": "native", **{k: None for k in pinned if os.environ.get(k) == pinned[k]}}
+
+
+def process(code: str, args: list[str], home: Path, env_changes: dict[str, str | None] | None = None) -> dict:
+    """Run `python -c code json(args)` as a new process with its own INBETWEEN_HOME (and env_changes: None
+    unsets); wall and CPU seconds, peak RSS (tree sum and largest process), and whether it imported torch and
+    Dagster (for the CLI)."""
     home.mkdir(parents=True, exist_ok=True)
     modules = home.parent / f".modules-{os.getpid()}.json"
     env = {**os.environ, "INBETWEEN_HOME": str(home), "DAGSTER_HOME": str(home / "dagster"),
            "BENCH_MODULES": str(modules), "PYTHONPATH": str(ROOT)}
+    for name, value in (env_changes or {}).items():
+        if value is None:
+            env.pop(name, None)
+        else:
+            env[name] = value
     start = time.perf_counter()
     proc = subprocess.Popen([sys.executable, "-c", code, json.dumps(args)], env=env, cwd=ROOT,
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)

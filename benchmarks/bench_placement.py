@@ -20,6 +20,9 @@ Run: .venv/bin/python benchmarks/bench_placement.py REALDEV_DIR [--n 40] [--spli
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import sys

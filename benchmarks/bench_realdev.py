@@ -12,6 +12,9 @@ Run: .venv/bin/python benchmarks/bench_realdev.py DATA_DIR [--only char1 ...] [-
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import os

@@ -11,6 +11,9 @@ Wall time on a shared machine is noisy; CPU seconds are printed beside it. The O
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import tempfile
 import time

@@ -31,6 +31,9 @@ set, it says how much of a shot's error the occlusion reading causes and how muc
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import sys

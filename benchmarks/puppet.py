@@ -13,6 +13,9 @@ joints (J, 2) float64 x, y pixels; a part is the bone parent(j) -> j, named by i
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 from dataclasses import dataclass
 
 import cv2

@@ -22,6 +22,9 @@ OUT_DIR/previews/<shot>.png shows the parts, then every frame with the skeleton 
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import shutil

@@ -20,6 +20,9 @@ from pathlib import Path
 if __package__ in (None, ""):  # run as a script: make the repository root importable
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+import ops  # noqa: E402, F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 from data_samples.generator.characters import human_pose, humanoid, tentacle  # noqa: E402
 from data_samples.generator.geometry import part_outline, polygon_crossings, signed_distance  # noqa: E402
 from data_samples.generator.legacy import render  # noqa: E402

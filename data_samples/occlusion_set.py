@@ -4,7 +4,10 @@ Usage: python data_samples/occlusion_set.py --split test --n 60 --out DIR [--sta
 
 Writes one folder per sample: image.png, skeleton.json (joints, parents, pose), fg.png, occ_union.png,
 occ_{i}.png and meta.json (class, style, per mask the front and back part). From Python, without files:
-`from data_samples.generator.occlusion_set import make_sample, samples`.
+`import ops  # noqa: E402, F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
+from data_samples.generator.occlusion_set import make_sample, samples`.
 """
 from __future__ import annotations
 

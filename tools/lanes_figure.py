@@ -13,6 +13,9 @@ bare paper), and with a ground truth each tile's caption gives its PSNR against 
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import sys
 from pathlib import Path

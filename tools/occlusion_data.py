@@ -17,6 +17,9 @@ train split, and every index for the test split. BVH_DIR: e.g. the AnimatedDrawi
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import json
 import sys

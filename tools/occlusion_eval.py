@@ -12,6 +12,9 @@ bones' shapes, joint overlaps included), per keyframe with an occlusion, average
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import statistics
 import sys

@@ -9,6 +9,9 @@ left unmarked, a front bone drawn thick on the wrong part.
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import sys
 from pathlib import Path

@@ -20,6 +20,9 @@ Samples missing from the cache are generated first (tools/occlusion_data.py).
 """
 from __future__ import annotations
 
+import ops  # noqa: F401  (first: it pins the numerical libraries' SIMD level before NumPy loads, ops/simd.py)
+
+# isort: split
 import argparse
 import math
 import re
