@@ -165,7 +165,10 @@ def read_front(region: np.ndarray, a: int, b: int, contrast: np.ndarray, foregro
     r = float(radii[slim])
     tol = max(RIM_TOL_PX, RIM_TOL * r)
     on_slim, in_slim = np.abs(d - r) <= tol, d < r - tol  # on the slim body's outline; deep inside it: the other's
-    base = float(np.median(contrast[ndimage.binary_erosion(region, iterations=2)])) if region.sum() > 40 else 0.0
+    inside = ndimage.binary_erosion(region, iterations=2) if region.sum() > 40 else np.zeros_like(region)
+    # the region's own contrast, away from its rim; none in a small or thin one (its median would be NaN, and a
+    # NaN base reads no bone as drawn)
+    base = float(np.median(contrast[inside])) if inside.any() else 0.0
     for bone, sel in ((slim, on_slim), (other, in_slim)):
         reading.pixels[bone] = int(sel.sum())
         reading.contrast[bone] = float(np.median(contrast[ys[sel], xs[sel]])) if sel.any() else base

@@ -1,6 +1,8 @@
 """One region per overlapping bone pair; the front read off the drawing (whose outline runs through), z elsewhere."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from ops.segmentation.bones import bone_radii
@@ -74,6 +76,25 @@ def test_the_drawing_puts_the_bone_whose_outline_runs_through_in_front():
     for drawing, front in ((front_drawn, FOREARM), (back_drawn, TORSO)):
         reading = read_front(true, TORSO, FOREARM, outline_contrast(drawing), fg, pose, skeleton, radii)
         assert reading.front == front, reading
+
+
+def test_a_thin_region_reads_without_a_nan():
+    """A region over 40 px whose 2 px erosion is empty (a 3 px strip across the crossing) has no inside contrast to
+    compare with: a NaN there read no bone as drawn, and numpy warned on the run's terminal (r02's key0)."""
+    pose, skeleton, true, fg, torso, arm = scene()
+    radii = bone_radii(fg, pose, skeleton)
+    cx = int(np.median(np.nonzero(true)[1]))
+    strip = true.copy()
+    strip[:, :cx - 1] = strip[:, cx + 2:] = False
+    assert strip.sum() > 40
+    front_drawn = ink_drawing((outline(torso) & ~arm) | outline(arm))
+    back_drawn = ink_drawing(outline(torso) | (outline(arm) & ~torso))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        got = [read_front(strip, TORSO, FOREARM, outline_contrast(d), fg, pose, skeleton, radii)
+               for d in (front_drawn, back_drawn)]
+    assert all(np.isfinite(list(r.contrast.values())).all() for r in got)
+    assert got[0].front != TORSO and got[1].front != FOREARM
 
 
 def test_the_drawing_overrides_z_with_one_warning_naming_both_bones():
