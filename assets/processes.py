@@ -43,6 +43,8 @@ from typing import Any
 
 from ops.cputime import charge
 
+from . import warning_log
+
 WORKERS = 2  # the machine's cores: the two lanes
 # what the stages offload needs, imported once in the fork server (and never Dagster or torch)
 PRELOAD = ("ops.appearance.lane", "ops.geometry.topology", "ops.segmentation.masks")
@@ -63,8 +65,11 @@ def enabled() -> bool:
     return os.environ.get(ENV_SWITCH, "1") != "0"
 
 
-def _ignore_sigint() -> None:
+def _init_worker(warnings_file: Path | None) -> None:
+    """A worker ignores Ctrl-C (the run stops it) and sends its Python warnings where its parent's go."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if warnings_file is not None:
+        warning_log.route_warnings(warnings_file)
 
 
 def _context() -> Any:
@@ -97,7 +102,8 @@ def pool() -> ProcessPoolExecutor | None:
         return None
     with _lock:
         if _pool is None:
-            _pool = ProcessPoolExecutor(WORKERS, mp_context=_context(), initializer=_ignore_sigint)
+            _pool = ProcessPoolExecutor(WORKERS, mp_context=_context(), initializer=_init_worker,
+                                        initargs=(warning_log.routed(),))
             _started = threading.Event()
             threading.Thread(target=_start_workers, args=(_pool, _started), name="inbetween-processes",
                              daemon=True).start()

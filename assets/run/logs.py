@@ -7,6 +7,7 @@ import warnings
 from pathlib import Path
 
 from ..home import home
+from ..warning_log import route_warnings
 
 
 def quiet_dagster_warnings() -> None:
@@ -18,24 +19,13 @@ def quiet_dagster_warnings() -> None:
 
 
 def warnings_to_log() -> Path:
-    """Send every Python warning of this process to INBETWEEN_HOME/logs/warnings.log instead of stderr.
+    """Send every Python warning of this process, and of the worker processes its runs start, to
+    INBETWEEN_HOME/logs/warnings.log instead of stderr.
 
     Dagster's Beta/Preview warnings, a library's DeprecationWarning, numpy's RuntimeWarning on odd input:
     none is the user's business on the terminal (--verbose leaves them there).
     """
-    path = home() / "logs" / "warnings.log"
-
-    def show(message, category, filename, lineno, file=None, line=None) -> None:
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)
-            with open(path, "a") as f:
-                f.write(f"{time.strftime('%Y-%m-%d %H:%M:%S')} {os.getpid()} "
-                        f"{warnings.formatwarning(message, category, filename, lineno, line).rstrip()}\n")
-        except OSError:
-            pass  # a warning never fails a run
-
-    warnings.showwarning = show
-    return path
+    return route_warnings(home() / "logs" / "warnings.log")
 
 
 def log_path(partition: str) -> Path:

@@ -198,3 +198,21 @@ def test_a_pool_after_a_warm_up_forks_its_workers_from_that_server():
                           cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
     server, parent = done.stdout.split()
     assert server == parent, done.stderr
+
+
+def test_a_workers_warning_goes_where_its_parents_go(tmp_path):
+    """The CLI sends warnings to INBETWEEN_HOME/logs/warnings.log; a lane's worker process did not, and numpy's
+    RuntimeWarning from a worker reached the terminal during `inbetween eval`."""
+    log = tmp_path / "warnings.log"
+    code = ("import os, sys, warnings\n"
+            "import assets.processes as processes\n"
+            "from assets.warning_log import route_warnings\n"
+            "route_warnings(sys.argv[1])\n"
+            "processes.run(warnings.warn, 'a warning in a worker', RuntimeWarning)\n"
+            "processes.shutdown()\n"
+            "print(os.getpid())\n")
+    out = subprocess.run([sys.executable, "-c", code, str(log)], capture_output=True, text=True, timeout=120,
+                         check=True, env={**os.environ, processes.ENV_SWITCH: "1"})
+    assert "a warning in a worker" not in out.stderr
+    lines = [ln for ln in log.read_text().splitlines() if "a warning in a worker" in ln]
+    assert len(lines) == 1 and lines[0].split()[2] != out.stdout.strip()  # logged by the worker, not the parent
