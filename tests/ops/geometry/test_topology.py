@@ -14,12 +14,15 @@ from ops.geometry.polygon import project_to_polyline
 from ops.geometry.template import build_template
 from ops.geometry.topology import (
     MAX_CUSP_MOVES,
+    TIE,
     WARM_START_LIMIT,
     Assignment,
     Solver,
     _key,
     _Region,
     _Search,
+    _search_even,
+    _search_odd,
     alternating,
     count_assignments,
     cusp_assignment,
@@ -28,6 +31,7 @@ from ops.geometry.topology import (
     evaluate,
     handle_path,
     incise,
+    lower,
     odd_assignment,
     optimize_topology,
     pose_path,
@@ -493,3 +497,42 @@ def test_a_template_stored_by_other_code_gives_no_cuts_to_keep(tmp_path):
     assert _previous_template(env, 1) is None
     env.code = None
     assert _previous_template(env, 1) is None
+
+
+def _scripted_region(energy_of):
+    """A region whose cuts' energies come from energy_of(assignment) instead of deformations."""
+    return types.SimpleNamespace(energy=lambda a, neighbours=(): energy_of(a))
+
+
+def test_a_tie_keeps_the_cut_tried_first():
+    jn = np.array([3, 12])
+    a, b = alternating(jn, 0), alternating(jn, 1)
+    for eb, want in ((1.0 - 0.5 * TIE, a), (1.0 - 2 * TIE, b), (1.0 + 1e-9, a)):
+        got = _search_even(_scripted_region(lambda x, eb=eb: 1.0 if x.labels[0] == a.labels[0] else eb), jn)
+        assert np.array_equal(got.labels, want.labels)
+    assert lower(1.0, np.inf) and not lower(np.inf, 1.0) and not lower(1.0 - TIE / 2, 1.0)
+
+
+def test_the_cusp_search_chooses_the_same_cut_whatever_the_last_bits():
+    """Two families tie at the least energy (as a region that never opens does) and the cusp's energy is flat
+    near its minimum: energies perturbed far below the tie (another CPU's kernels) choose the same cut, and the
+    choice is within a tie of the least energy the search saw."""
+    n, jn = 40, np.array([3, 17, 29])
+    rng = np.random.default_rng(3)
+
+    def energy(a: Assignment, noise: float, seen: list) -> float:
+        stretch = int(np.searchsorted(jn, a.cusp)) % 3  # the stretch after the T-junction before it
+        label_at_first = int(segment_labels(a, np.array([jn[0] + 0.5]))[0])
+        e = 5.0 + 0.5 * (stretch == 2) + (0.0 if stretch == 0 else 0.3 * label_at_first) + 1e-6 * (a.cusp % 7)
+        e *= 1 + noise * rng.standard_normal()
+        seen.append(e)
+        return e
+
+    chosen = set()
+    for noise in (0.0, 1e-9, 1e-8, 1e-7):
+        for _ in range(5):
+            seen: list[float] = []
+            got = _search_odd(_scripted_region(lambda a: energy(a, noise, seen)), n, jn)
+            chosen.add((tuple(got.switches.tolist()), tuple(got.labels.tolist())))
+            assert energy(got, 0.0, []) <= min(seen) * (1 + 2 * TIE)
+    assert len(chosen) == 1
