@@ -440,9 +440,10 @@ def _search_implied(region: _Region, implied: Assignment) -> Assignment:
     (ops.geometry.implied_cut; the earlier on a tie), the last warm-started from the better of the first two."""
     a, b = alternating(np.zeros(0, np.int64), 0), alternating(np.zeros(0, np.int64), 1)
     scored = {0: region.energy(a), 1: region.energy(b, [a])}
-    best = (a, b)[_first_best(scored)]
+    first = _first_best(scored)
+    best = (a, b)[first]
     e = region.energy(implied, [best, b if best is a else a])
-    return implied if lower(e, min(scored.values())) else best
+    return implied if lower(e, scored[first]) else best
 
 
 def _search_odd(region: _Region, n: int, junctions: np.ndarray) -> Assignment:
