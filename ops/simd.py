@@ -97,3 +97,15 @@ def numpy_dispatch() -> list[str]:
 def state() -> dict:
     """What `pin` did and what NumPy now dispatches to, for a run's report: level, why, late, numpy."""
     return {**pin(), "numpy": (numpy_dispatch() or ["baseline"])[0]}
+
+
+def unheld() -> str | None:
+    """A one-line warning when the pin was asked for but NumPy computes above x86-64-v3 all the same (it was
+    imported before `ops`, as a script that imports numpy first does); None when the pin holds or was not asked."""
+    now = state()
+    above = set(_NUMPY_ABOVE_V3.split())
+    if now["level"] != LEVEL or now["numpy"] not in above:
+        return None
+    return (f"NumPy was imported before the inbetween packages, so this process computes with the CPU's own SIMD "
+            f"kernels ({now['numpy']}) and its results may differ from other machines' in their last bits; fix: "
+            f"import ops (or assets) before numpy, or set {ENV_SWITCH}=native to say this is meant")

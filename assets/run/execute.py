@@ -10,6 +10,7 @@ write the frames and the report; the same for the evaluation group and for expor
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -120,6 +121,8 @@ def run_shot(shot_dir: str | Path, out_dir: str | Path, settings: Settings | Non
     from ops.shotio.frames import write_outputs, write_report
 
     start = time.perf_counter() if started is None else started
+    if (unheld := simd.unheld()) is not None:  # a script that imported numpy first: say so, once per process
+        warnings.warn(unheld, RuntimeWarning, stacklevel=2)
     settings = settings or Settings()
     shot = load_shot(shot_dir)  # validate before touching anything
     partition = register(shot.root)

@@ -88,3 +88,16 @@ def test_the_pinned_bits_are_those_of_a_machine_without_avx512():
         native = _python(PAGE, INBETWEEN_SIMD="native")
         assert native["state"]["numpy"] not in ("X86_V3", "X86_V2")
         assert native["digest"] != pinned["digest"]  # what the pin is for: the other kernels' last bits
+
+
+@pytest.mark.skipif(not AVX512, reason="on a CPU without AVX-512 NumPy's own kernels are already at AVX2")
+def test_a_script_that_imports_numpy_first_is_told():
+    """A TD's script that imports numpy before our packages computes with the CPU's own kernels: run_shot warns
+    once, with the fix; importing ops first, or asking for the native kernels, says nothing."""
+    code = ("import json\n{first}\nfrom ops import simd\n"
+            "print(json.dumps(simd.unheld()))\n")
+    told = _python(code.format(first="import numpy"))
+    assert told and "import ops (or assets) before numpy" in told and simd.ENV_SWITCH in told
+    assert _python(code.format(first="import ops, numpy")) is None
+    assert _python(code.format(first="import numpy"), INBETWEEN_SIMD="native") is None
+
