@@ -92,10 +92,18 @@ def ghosting(key0: np.ndarray, key1: np.ndarray, flow: np.ndarray, mask: np.ndar
     flow (H, W, 4) px and fusion mask (H, W) (the weight of key0), ghosts: the largest channel difference of the
     two keys warped there (premultiplied, by RIFE's own blend's warp), times 4 m (1 - m) of the mask at alpha (1
     where both weigh alike, 0 where one key alone is taken)."""
+    return _ghosting(_premultiplied(key0), _premultiplied(key1), flow, mask, alpha)
+
+
+def _premultiplied(key: np.ndarray) -> np.ndarray:
+    """(H, W, 4) straight RGBA -> (1, 4, H, W) premultiplied, as RIFE's warp takes it."""
+    return np.concatenate((key[..., :3] * key[..., 3:], key[..., 3:]), -1).transpose(2, 0, 1)[None]
+
+
+def _ghosting(pre0: np.ndarray, pre1: np.ndarray, flow: np.ndarray, mask: np.ndarray, alpha: float) -> np.ndarray:
+    """ghosting from the keys already premultiplied (_premultiplied): a segment's frames share them."""
     f, m = scaled_flow_mask(np.asarray(flow, np.float32).transpose(2, 0, 1)[None],
                             np.asarray(mask, np.float32)[None, None], float(alpha))
-    pre0, pre1 = (np.concatenate((k[..., :3] * k[..., 3:], k[..., 3:]), -1).transpose(2, 0, 1)[None]
-                  for k in (key0, key1))
     diff = np.abs(warp(pre0, f[:, :2]) - warp(pre1, f[:, 2:4])).max(1)[0]
     m = m[0, 0]
     return (diff * 4.0 * m * (1.0 - m)).astype(np.float32)
@@ -171,11 +179,12 @@ def with_key_fallback(frames: np.ndarray, seq0: DeformedSequence, seq1: Deformed
     key0 = np.ascontiguousarray(seq0.images[0][ys, xs], np.float32)
     key1 = np.ascontiguousarray(seq1.images[-1][ys, xs], np.float32)
     m, idx = _keys_matrix(key0, key1, times, load_rife(), MAX_DEPTH, "scaled")
+    pre0, pre1 = _premultiplied(key0), _premultiplied(key1)  # once for every frame's ghost test
     for t in weights:
         lesser, meeting = (term[ys, xs] if term is not None else None for term in terms[t])
         w = lesser
         if meeting is not None:  # the tears that meet, less where RIFE itself ghosts
-            ghost = ghosting(key0, key1, m.flows[0], m.masks[0], m.alphas[idx[t]]) >= GHOST_DIFF
+            ghost = _ghosting(pre0, pre1, m.flows[0], m.masks[0], m.alphas[idx[t]]) >= GHOST_DIFF
             w = np.maximum(lesser, meeting * (1.0 - np.minimum(_blur(ghost, GHOST_SIGMA), 1.0)))
         window = out[t][ys, xs]
         touched = w > 0  # elsewhere the frame stays bit for bit (and every weighted pixel is in the box)
