@@ -140,11 +140,10 @@ def _native_simd() -> dict[str, str | None]:
     at its fastest on this machine, where our runs hold the libraries at AVX2 (ops/simd.py; PyTorch's RIFE takes
     about 1.2x the CPU there)."""
     try:
-        from ops import simd
+        from ops.simd import set_by_pin
     except ImportError:  # code from before the pin
         return {}
-    pinned = simd.settings_for(simd.cpu_flags())
-    return {"INBETWEEN_SIMD": "native", **{k: None for k in pinned if os.environ.get(k) == pinned[k]}}
+    return {"INBETWEEN_SIMD": "native", **dict.fromkeys(set_by_pin())}
 
 
 def process(code: str, args: list[str], home: Path, env_changes: dict[str, str | None] | None = None) -> dict:

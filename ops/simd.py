@@ -32,6 +32,7 @@ _OPENCV_ABOVE_V3 = {"AVX512F": {"avx512f"}, "AVX512-COMMON": {"avx512f", "avx512
                     "AVX512-SKX": {"avx512f", "avx512cd", "avx512bw", "avx512dq", "avx512vl"}}
 
 _state: dict = {}
+_set: dict[str, str] = {}  # the variables pin() set (those the user had set are not among them)
 
 
 def cpu_flags() -> set[str]:
@@ -80,9 +81,17 @@ def pin() -> dict:
             _state.update(level="native", why="the CPU reports no AVX2 and FMA", late=late)
         else:
             for name, value in env.items():
-                os.environ.setdefault(name, value)
+                if name not in os.environ:
+                    os.environ[name] = _set[name] = value
             _state.update(level=LEVEL, why="", late=late)
     return _state
+
+
+def set_by_pin() -> dict[str, str]:
+    """The environment variables pin() set in this process, and their values (a child process given this
+    environment without them computes with the CPU's own kernels, with INBETWEEN_SIMD=native)."""
+    pin()
+    return dict(_set)
 
 
 def numpy_dispatch() -> list[str]:
