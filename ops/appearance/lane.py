@@ -12,7 +12,6 @@ from ops.appearance.render import Renderer, depth_order, rasterize_ids
 from ops.appearance.texture import texture_template
 from ops.appearance.weights import depth_weights
 from ops.geometry.deform import Deformer, deform_sequence
-from ops.geometry.foreshortening import Foreshortening
 from ops.geometry.register import PASSES, Registration, fade_in, flow_targets, gray_over_white, register
 from ops.types import DeformedSequence, Masks, RefinedMasks, Template, TexturedTemplate
 
@@ -30,7 +29,6 @@ def texture_lane(template: Template, own: RefinedMasks, other: RefinedMasks | No
     if other is None:
         return texture_template(template, weights, own, None, pose, None, inpainter), 0.0
     deformer = Deformer(template.rest, template.faces, template.handles, mu=mu)
-    deformer.set_metric(Foreshortening(template, pose).metric(other_pose))
     targets = template.handle_targets(other_pose)
     x0 = start if start is not None and start.shape == template.rest.shape else None
     if x0 is not None and not np.isfinite(deformer.energy(x0, targets)):
@@ -48,10 +46,7 @@ def deform_lane(textured: TexturedTemplate, times: np.ndarray, poses: np.ndarray
     other: the masks of the key at the segment's other end; given, the lane is registered onto that drawing
     where the skeleton leaves it off, faded in over the segment (ops.geometry.register)."""
     template = textured.template
-    foreshortening = Foreshortening(template, poses[-1 if backward else 0])  # the lane's own key's pose
-    metrics = [foreshortening.metric(p) for p in poses]
-    X, energies, iters = deform_sequence(template, poses, "backward" if backward else "forward", mu=mu,
-                                         metrics=metrics)
+    X, energies, iters = deform_sequence(template, poses, "backward" if backward else "forward", mu=mu)
     T = len(times)
     images = np.zeros((T, *shape, 4), np.float32)
     inpainted = np.zeros((T, *shape), bool)
@@ -66,7 +61,7 @@ def deform_lane(textured: TexturedTemplate, times: np.ndarray, poses: np.ndarray
         progress = (t - t[start]) / (t[end] - t[start]) if t[end] != t[start] else np.zeros(T)
         X, fade = fade_in(X, reg.displacement, progress, end, template.faces)
     for i in range(T):
-        images[i], inpainted[i], distorted[i] = renderer.frame(X[i], poses[i], shape, supersample, metrics[i])
+        images[i], inpainted[i], distorted[i] = renderer.frame(X[i], poses[i], shape, supersample)
     return DeformedSequence(np.asarray(times, float).copy(), np.asarray(X), images, inpainted,
                             np.asarray(energies, float), np.asarray(iters, np.int64), distorted, fade)
 

@@ -269,10 +269,9 @@ class Renderer:
         return map_x if self.back_offset is None else map_x + self.back_offset.take(np.maximum(ids, 0))
 
     def frame(self, X: np.ndarray, pose: np.ndarray, shape: tuple[int, int] | None = None,
-              supersample: int = 2, metric: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+              supersample: int = 2) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """X (n, 2) deformed vertices, pixels; pose (J, 3) -> (rgba (H, W, 4) float32 straight, inpainted (H, W)
-        bool, distorted (H, W) bool: visible pixels drawn by faces scaled beyond DISTORTION_LIMIT from their
-        reference shape: the rest triangle, mapped by metric (m, 2, 2) where given (foreshortening))."""
+        bool, distorted (H, W) bool: visible pixels drawn by faces scaled beyond DISTORTION_LIMIT)."""
         shape = tuple(shape) if shape is not None else self.textured.texture.shape[:2]
         s = int(supersample)
         window = Window.around(X, shape)
@@ -282,11 +281,10 @@ class Renderer:
             return rgba, inpainted, distorted
         crop = window.slices
         pre, map_x, map_y, hidden, ids = self._samples(X, pose, window, s)
-        rgba[crop], inpainted[crop], distorted[crop] = self._finish(X, pre, map_x, map_y, hidden, ids, s, metric)
+        rgba[crop], inpainted[crop], distorted[crop] = self._finish(X, pre, map_x, map_y, hidden, ids, s)
         return rgba, inpainted, distorted
 
-    def _finish(self, X, pre, map_x, map_y, hidden, ids, s: int, metric: np.ndarray | None = None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _finish(self, X, pre, map_x, map_y, hidden, ids, s: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A window's samples -> its (rgba, inpainted, distorted) pixels, as frame() returns them."""
         rgba = unpremultiply(downsample(pre, s))
         bh, bw = self.textured.back_inpainted.shape
@@ -297,7 +295,7 @@ class Renderer:
         shown = rgba[..., 3] > 0.5
         inpainted = (downsample(filled.astype(np.float32), s) >= 0.5) & shown
         tpl = self.textured.template
-        torn = np.append(face_stretch(tpl.rest, X, tpl.faces, metric) > DISTORTION_LIMIT, False)  # id -1 -> False
+        torn = np.append(face_stretch(tpl.rest, X, tpl.faces) > DISTORTION_LIMIT, False)  # id -1 -> False
         distorted = (downsample(torn[ids].astype(np.float32), s) >= 0.5) & shown
         return rgba.astype(np.float32), inpainted, distorted
 

@@ -163,22 +163,6 @@ class Deformer:
         self._edges = _edge_operator(self.faces, len(self.rest))
         self._newton: NewtonSystem | None = None
         self._solve_P = None  # the L-BFGS preconditioner's factorization, made when first needed
-        self._metric: np.ndarray | None = None
-        self._handle_weights = handle_weights
-
-    def set_metric(self, metric: np.ndarray | None) -> None:
-        """Measure the energy against each face's rest triangle mapped by metric (m, 2, 2) (None: the rest
-        triangle itself; ops.geometry.foreshortening). The face weights, the handle-free regularizer and the
-        L-BFGS preconditioner stay the rest mesh's (the preconditioner only has to be near the Hessian)."""
-        if metric is None and self._metric is None:
-            return
-        if metric is not None and self._metric is not None and np.array_equal(metric, self._metric):
-            return
-        self._metric = None if metric is None else np.asarray(metric, np.float64).copy()
-        self.energy_fn = SymmetricDirichlet(self.rest_n, self.faces, self.handles, self.mu, self._handle_weights,
-                                            metric=self._metric)
-        if self._newton is not None:  # its fixed per-face blocks come from the Jacobian's coefficients
-            self._newton.use(self.energy_fn)
 
     def _setup_free_groups(self) -> None:
         """Label the vertices of components without handles, whose mean is projected out of every step, and the
@@ -438,15 +422,14 @@ def _edge_operator(faces: np.ndarray, n: int) -> sp.csr_matrix:
 
 def deform_sequence(
     template: Template, poses: np.ndarray, order: str = "forward", deformer: Deformer | None = None,
-    grad_tol: float | None = None, mu: float = 200.0, metrics: list | None = None,
+    grad_tol: float | None = None, mu: float = 200.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Deform the template into every pose (T, J, 3), warm-starting each frame from its neighbour.
 
     order "forward" solves t = 0, 1, ... (key0's template); "backward" solves
     from the last frame down (key1's). deformer: default FRAME_METHOD's with
     pose weight mu; grad_tol: default FRAME_GRAD_TOL for Newton, 0.01 for
-    L-BFGS; metrics: per frame, each face's reference metric (m, 2, 2) or None
-    (Deformer.set_metric; ops.geometry.foreshortening). Returns X
+    L-BFGS. Returns X
     (T, n, 2) pixels, energies (T,), iterations (T,) int64, all in time order.
     """
     if order not in ("forward", "backward"):
@@ -460,8 +443,6 @@ def deform_sequence(
     frames = range(T) if order == "forward" else range(T - 1, -1, -1)
     x = None
     for i in frames:
-        if metrics is not None:
-            d.set_metric(metrics[i])
         res = d.solve(template.handle_targets(poses[i]), x0=x, grad_tol=grad_tol)
         X[i], energies[i], iters[i], x = res.x, res.energy, res.iterations, res.x
     return X, energies, iters

@@ -49,11 +49,9 @@ class SymmetricDirichlet:
     """E_SD + pose term on a fixed rest mesh; evaluate with `value_grad` on normalized positions (n, 2)."""
 
     def __init__(self, rest_n: np.ndarray, faces: np.ndarray, handles: np.ndarray, mu: float = 200.0,
-                 handle_weights: np.ndarray | None = None, metric: np.ndarray | None = None):
+                 handle_weights: np.ndarray | None = None):
         """rest_n: (n, 2) normalized rest positions; faces (m, 3) int64; handles (h,) int64 vertex ids;
-        handle_weights: (h,) float64 >= 0 scaling mu per handle (None: 1 each, the pose term); metric: (m, 2, 2)
-        float64 each face's reference shape as a linear map of its rest triangle (None: the rest triangle;
-        ops.geometry.foreshortening). The face weights stay the rest areas."""
+        handle_weights: (h,) float64 >= 0 scaling mu per handle (None: 1 each, the pose term)."""
         self.n, self.faces = len(rest_n), np.asarray(faces, dtype=np.int64)
         self.handles, self.mu = np.asarray(handles, dtype=np.int64), float(mu)
         # a registration's data term trusts some vertices more than others; the pose term leaves this None so
@@ -63,7 +61,7 @@ class SymmetricDirichlet:
         if (area <= 0).any():
             raise ValueError(f"rest mesh has {int((area <= 0).sum())} non-positive-area face(s)")
         self.weight = area / area.sum()
-        self.coef = jacobian_coefficients(rest_n, self.faces, metric)
+        self.coef = jacobian_coefficients(rest_n, self.faces)
         self.K = _jacobian_operator(self.coef, self.faces, self.n)
         self.KT = self.K.T.tocsr()  # transposing per call costs more than the product itself
 
@@ -141,13 +139,10 @@ _TWIST_FACTOR = 1.0
 _D2_DET = np.array([[0, 0, 0, 1], [0, 0, -1, 0], [0, -1, 0, 0], [1, 0, 0, 0]], float)  # Hessian of p s - q r
 
 
-def jacobian_coefficients(rest_n: np.ndarray, faces: np.ndarray, metric: np.ndarray | None = None) -> np.ndarray:
+def jacobian_coefficients(rest_n: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """(m, 2, 3) A with row i of J_f^T = sum_j A[f, i, j] X[faces[f, j]]: the per-face Jacobian's linear map of
-    the corner positions (rows of J^T = R^-T D^T; R, D = rest and deformed edge matrices [x1-x0, x2-x0]); with
-    a metric (m, 2, 2), the reference edges are metric @ R."""
+    the corner positions (rows of J^T = R^-T D^T; R, D = rest and deformed edge matrices [x1-x0, x2-x0])."""
     R = np.stack([rest_n[faces[:, 1]] - rest_n[faces[:, 0]], rest_n[faces[:, 2]] - rest_n[faces[:, 0]]], axis=2)
-    if metric is not None:
-        R = np.asarray(metric, np.float64) @ R
     A = np.transpose(np.linalg.inv(R), (0, 2, 1))  # R^-T
     return np.stack([-A.sum(axis=2), A[:, :, 0], A[:, :, 1]], axis=2)
 

@@ -50,13 +50,10 @@ def signed_areas(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     return 0.5 * (e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
 
 
-def face_stretch(rest: np.ndarray, X: np.ndarray, F: np.ndarray, metric: np.ndarray | None = None) -> np.ndarray:
+def face_stretch(rest: np.ndarray, X: np.ndarray, F: np.ndarray) -> np.ndarray:
     """(m,) float64 worst scale of each face's affine map rest (n, 2) -> X (n, 2): max(sigma_max, 1 / sigma_min)
-    of its Jacobian; 1 for a rigid motion, inf for a face collapsed to a line or a degenerate rest face. metric:
-    (m, 2, 2) each face's reference shape as a linear map of its rest triangle (ops.geometry.foreshortening)."""
+    of its Jacobian; 1 for a rigid motion, inf for a face collapsed to a line or a degenerate rest face."""
     e1, e2 = rest[F[:, 1]] - rest[F[:, 0]], rest[F[:, 2]] - rest[F[:, 0]]
-    if metric is not None:
-        e1, e2 = np.einsum("fij,fj->fi", metric, e1), np.einsum("fij,fj->fi", metric, e2)
     d1, d2 = X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]
     det_e = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -50,18 +50,6 @@ class NewtonSystem:
         self._indptr = np.searchsorted(unique // self.size, np.arange(self.size + 1)).astype(np.int32)
         self._nnz = len(unique)
         self._diagonal = np.repeat(np.asarray(diagonal, np.float64), 2)
-        self._pairs = a, b
-        self._factor: qdldl.Solver | None = None
-        self.use(energy_fn)
-
-    def use(self, energy_fn: SymmetricDirichlet) -> None:
-        """Assemble from now on the Hessian of energy_fn: the same mesh and handles with other Jacobian
-        coefficients (another reference metric, Deformer.set_metric). The sparsity pattern and the
-        factorization's symbolic analysis are kept."""
-        if len(energy_fn.faces) != len(self.energy_fn.faces) or energy_fn.n != self.energy_fn.n:
-            raise ValueError("NewtonSystem.use needs the same mesh")
-        self.energy_fn = energy_fn
-        a, b = self._pairs
         # the face Hessian in (p, q, r, s) is a weighted identity, a constant matrix (the Hessian of the
         # determinant) and rank-one terms; mapped to the corners by A (4, 6), the first two are constant per face
         A = _corner_map(energy_fn.coef)  # (m, 4, 6)
@@ -69,6 +57,7 @@ class NewtonSystem:
         At = A.transpose(0, 2, 1)  # batched products: einsum's general path took 9 of an init's 22 ms
         self._AA = (At @ A)[:, a, b]  # (m, 21): A^T A
         self._AD = (At @ (_D2_DET @ A))[:, a, b]  # A^T D2 A
+        self._factor: qdldl.Solver | None = None
 
     def matrix(self, X: np.ndarray) -> sp.csc_matrix:
         """Upper triangle (2n, 2n) CSC of the positive semi-definite Hessian at normalized positions X (n, 2).
@@ -122,10 +111,7 @@ class NewtonSystem:
         when the factorization meets a zero pivot (a matrix that is not positive definite)."""
         H = self.matrix(X)
         if self._factor is None:
-            try:
-                self._factor = qdldl.Solver(H, upper=True)
-            except RuntimeError as err:  # qdldl's first factorization reports a zero pivot this way
-                raise ValueError("the projected Hessian is singular here") from err
+            self._factor = qdldl.Solver(H, upper=True)
         else:
             self._factor.update(H, upper=True)
         D = -self._factor.solve(G.reshape(-1)).reshape(-1, 2)
