@@ -111,7 +111,10 @@ class NewtonSystem:
         when the factorization meets a zero pivot (a matrix that is not positive definite)."""
         H = self.matrix(X)
         if self._factor is None:
-            self._factor = qdldl.Solver(H, upper=True)
+            try:
+                self._factor = qdldl.Solver(H, upper=True)
+            except RuntimeError as err:  # qdldl's first factorization reports a zero pivot so, its updates by inf
+                raise ValueError("the projected Hessian is singular here") from err
         else:
             self._factor.update(H, upper=True)
         D = -self._factor.solve(G.reshape(-1)).reshape(-1, 2)

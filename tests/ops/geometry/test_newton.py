@@ -104,3 +104,20 @@ def test_a_full_newton_step_is_extended_while_the_energy_keeps_falling():
         else:
             assert t >= 2.0 and E < E1 and (2 * t not in along or along[2 * t] >= E)
         assert np.allclose(G, d.energy_fn.value_grad(X + t * D, targets)[1])
+
+
+def test_a_zero_pivot_at_the_first_factorization_falls_back_to_lbfgs(monkeypatch):
+    # qdldl raises RuntimeError ("not quasi-definite") when its first factorization meets a zero pivot (a handle-
+    # free sliver's tiny regularizer can give one); that is a singular step, which the solver answers with
+    # L-BFGS's direction, not a crash of the whole lane
+    import ops.geometry.newton as newton
+
+    class ZeroPivot:
+        def __init__(self, *args, **kwargs):
+            raise RuntimeError("Error in matric factorization. Input matrix is not quasi-definite")
+
+    V, F, h = strip()
+    d = Deformer(V, F, h, method="newton")
+    monkeypatch.setattr(newton.qdldl, "Solver", ZeroPivot)
+    res = d.solve(bend(MID, 40.0))
+    assert res.converged and count_flipped(res.x, F) == 0
