@@ -11,6 +11,7 @@ stages using the network get a new code version) and prints recall and precision
 (train-split samples after the trained ones: never trained on) for a sweep of thresholds.
 
     python tools/train_junctions.py --cache CACHE_DIR [--samples 1500] [--samples3d 2000] [--steps 6000]
+    python tools/train_junctions.py --cache OTHER_CACHE --bvh BVH_DIR ...   # people posed by motion clips
 
 The held-out figures are benchmarks/bench_junctions.py's. Samples missing from the cache are generated first
 (tools/occlusion_data.py: the same cache as the occlusion network's, whose 3D samples carry their junctions).
@@ -226,6 +227,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--threads", type=int, default=1, help="torch threads (one: less CPU time on a busy machine)")
     ap.add_argument("--out", type=Path, default=WEIGHTS_PATH)
     ap.add_argument("--workers", type=int, default=1, help="processes generating missing samples")
+    ap.add_argument("--bvh", type=Path, default=None,
+                    help="folder of .bvh clips that pose the 3D generator's people in the trained-on samples (the "
+                         "tuning samples stay posed procedurally); use a cache of its own")
     ap.add_argument("--tune-n", type=int, default=100, help="tuning samples per generator (train split, untrained)")
     ap.add_argument("--tune-only", action="store_true", help="only print the tuning sweep of --out")
     args = ap.parse_args(argv)
@@ -255,7 +259,8 @@ def train(args: argparse.Namespace) -> None:
     t0 = time.perf_counter()
     c0 = time.process_time()
     paths2d = ensure(args.cache, "train", 0, args.samples, args.workers) if args.samples else []
-    paths3d = ensure(args.cache, "train", 0, args.samples3d, args.workers, "3d") if args.samples3d else []
+    bvh = str(args.bvh) if args.bvh else None
+    paths3d = ensure(args.cache, "train", 0, args.samples3d, args.workers, "3d", bvh) if args.samples3d else []
     items2d = [prepare(load(p), rng) for p in paths2d]
     items3d = [prepare(load(p), rng) for p in paths3d]
     n_true = sum(len(i["pts"]) for i in items2d + items3d)
