@@ -194,5 +194,11 @@ def test_processes_opening_a_new_home_at_once_all_succeed(tmp_path):
 
     for round_ in range(2):
         home = tmp_path / f"home{round_}"
-        with mp.get_context("spawn").Pool(4) as pool:
+        # closed and joined, not left to Pool.__exit__'s terminate(): a loaded suite once hung there for good, a
+        # worker alive in its task queue's lock that the SIGTERM did not end and terminate() then joined forever
+        pool = mp.get_context("spawn").Pool(4)
+        try:
             assert pool.map(_open_fresh_instance, [str(home)] * 4) == ["ok"] * 4
+        finally:
+            pool.close()
+            pool.join()
