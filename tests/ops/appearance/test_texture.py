@@ -301,3 +301,51 @@ def test_texture_hands_the_inpainter_the_context_coverage():
         texture_template(tpl, depth_weights(tpl), refined(fg, drawing), refined(fg, drawing, [fg]), FLAT, tpl.rest, inp)
     cov = calls["modern"]
     assert cov.shape == fg.shape and np.array_equal(cov > 0.5, fg) and calls["legacy"]
+
+
+def test_a_joints_weight_does_not_reach_across_a_slit():
+    """Issue 27: a handle's weights must not reach across a cut into the body beside it. An arm hangs along a torso,
+    the two drawn touching (one foreground); the contact's slit cuts the mesh between them. Half-way down the slit
+    the hand's weight on the torso's side is a small share of its weight on the arm's side, where without the slit
+    the two sides weigh about the same (the weights follow the mesh, not the plane)."""
+    from types import SimpleNamespace
+
+    import cv2
+
+    from ops.geometry.template import build_template
+    from ops.types import Skeleton
+    from tests.ops.geometry.test_template import capsule
+
+    sk = Skeleton(joints=("hips", "neck", "shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1, 2, 3]))
+    pose = np.array([[64, 100, 0], [64, 30, 0], [86, 36, 0], [89, 64, 0], [90, 92, 0]], float)
+    torso = capsule(pose[0, :2], pose[1, :2], 20.0, 3.0)
+    arm = capsule(pose[2, :2], pose[4, :2], 6.0, 2.0)
+    fg = np.zeros((128, 128), np.uint8)
+    cv2.fillPoly(fg, [np.round(torso).astype(np.int32)], 1)
+    cv2.fillPoly(fg, [np.round(arm).astype(np.int32)], 1)
+    outline = cv2.findContours(fg, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[0][0][:, 0].astype(np.float64)
+    # the contact's slit runs down the shared edge and out through the notch where the arm leaves the torso, as
+    # slits near the outline are carried to it (ops.segmentation.slits)
+    notch = outline[np.argmin(np.linalg.norm(outline - (84.0, 97.0), axis=1))]
+    slit = np.concatenate([np.stack([np.full(15, 84.0), np.linspace(48.0, 92.0, 15)], axis=1), notch[None]])
+
+    def hand_weight_beside_slit(slits):
+        masks = RefinedMasks(foreground=fg.astype(bool), occlusion=[], front_bones=[], boundaries=[], junctions=[],
+                             domain=[outline], domain_holes=np.zeros((0, 2)), coverage=fg.astype(np.float32),
+                             paper=np.ones((128, 128, 3), np.float32), colour=np.ones((128, 128, 3), np.float32),
+                             slits=slits)
+        base = build_template(masks, pose, sk, max_area=4.0)
+        doubled = len(base.V) - len(np.unique(np.round(base.V, 6), axis=0))  # the slit's vertices, one per side
+        assert (doubled > 0) == bool(slits)
+        W = depth_weights(SimpleNamespace(rest=base.V, faces=base.F, handles=base.handle_vertex,
+                                          handle_weights=base.handle_weights))
+        row = np.abs(base.V[:, 1] - 69.0) < 4.0
+        torso_side = row & (base.V[:, 0] > 79.0) & (base.V[:, 0] < 83.5)
+        arm_side = row & (base.V[:, 0] > 84.5) & (base.V[:, 0] < 89.0)
+        assert torso_side.any() and arm_side.any()
+        return W[torso_side, 4].mean(), W[arm_side, 4].mean()
+
+    torso_w, arm_w = hand_weight_beside_slit([slit])
+    assert torso_w < 0.02 * arm_w and arm_w > 0.1, (torso_w, arm_w)
+    glued_torso, glued_arm = hand_weight_beside_slit([])
+    assert glued_torso > 0.5 * glued_arm, (glued_torso, glued_arm)
