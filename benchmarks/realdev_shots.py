@@ -1,6 +1,7 @@
 """Real drawings, puppeted: two-key shots whose texture is a photographed child's drawing, with true in-betweens.
 
     python benchmarks/realdev_shots.py REALDEV_DIR OUT_DIR [--only char1:dab char4:wave_hello:redrawn ...]
+    python benchmarks/realdev_shots.py REALDEV_DIR OUT_DIR --plan heldout   # the clips the set leaves out
     python -m assets.cli eval OUT_DIR --out EVAL_DIR          # then score ours, RIFE-direct and the rest
 
 REALDEV_DIR holds AnimatedDrawings' example characters and clips (facebookresearch/AnimatedDrawings, MIT): either
@@ -79,6 +80,12 @@ PLAN = (("char1", "dab", "plain"), ("char1", "jumping_jacks", "plain"), ("char2"
         ("char2", "dab", "plain"), ("char3", "dab", "plain"), ("char3", "jumping_jacks", "plain"),
         ("char4", "wave_hello", "plain"), ("char4", "jumping", "plain"),
         ("char1", "dab", "redrawn"), ("char3", "jumping_jacks", "redrawn"), ("char4", "wave_hello", "redrawn"))
+
+# The clips the plan above leaves out, each character's other motions: a split never tuned on (the same drawings,
+# other overlaps). char2's jumping is left out for her skirt, as above
+HELDOUT_PLAN = (("char1", "wave_hello", "plain"), ("char1", "jumping", "plain"), ("char2", "jumping_jacks", "plain"),
+                ("char3", "wave_hello", "plain"), ("char3", "jumping", "plain"), ("char4", "dab", "plain"),
+                ("char4", "jumping_jacks", "plain"), ("char1", "wave_hello", "redrawn"))
 
 LIMBS = (("right_elbow", "right_arm"), ("right_hand", "right_arm"), ("left_elbow", "left_arm"),
          ("left_hand", "left_arm"), ("right_knee", "right_leg"), ("right_foot", "right_leg"),
@@ -441,6 +448,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("realdev", type=Path, help="folder of AnimatedDrawings' characters and bvh/ (see above)")
     ap.add_argument("out", type=Path, help="folder to write the shots into (one sub-folder each)")
     ap.add_argument("--only", nargs="*", default=None, help="plan entries to make, as charN:clip[:redrawn]")
+    ap.add_argument("--plan", choices=("dev", "heldout"), default="dev",
+                    help="dev: the development set (rdNN_...); heldout: the clips it leaves out (rhNN_...), never tuned on")
     args = ap.parse_args(argv)
     base = characters_dir(args.realdev)
     configs = sorted((base / "bvh").glob("*.yaml"))
@@ -454,7 +463,8 @@ def main(argv: list[str] | None = None) -> int:
                              "...): not a humanoid")
             print(f"{name}: skipped: {skipped[name]}")
     records, cache = [], {}
-    for index, (cname, clip, variant) in enumerate(PLAN):
+    plan, prefix = (PLAN, "rd") if args.plan == "dev" else (HELDOUT_PLAN, "rh")
+    for index, (cname, clip, variant) in enumerate(plan):
         tag = f"{cname}:{clip}" + (":redrawn" if variant == "redrawn" else "")
         if args.only and tag not in args.only:
             continue
@@ -469,7 +479,7 @@ def main(argv: list[str] | None = None) -> int:
         poses, idx, cfg, window = cache[cname, clip]
         filmed = film(ch, poses, window, index if variant == "redrawn" else None)
         what = what_it_holds(filmed, ch, poses, window)
-        name = f"rd{index:02d}_{cname}_{clip}_{what}" + ("_redrawn" if variant == "redrawn" else "")
+        name = f"{prefix}{index:02d}_{cname}_{clip}_{what}" + ("_redrawn" if variant == "redrawn" else "")
         meta = {"source": "AnimatedDrawings examples (MIT)", "character": cname, "clip": clip, "retarget": cfg,
                 "bvh_frames": [int(idx[f]) for f in window.frames], "bvh_step": int(idx[window.stride] - idx[0]),
                 "variant": variant, "redraw_px": REDRAW_PX if variant == "redrawn" else 0.0,

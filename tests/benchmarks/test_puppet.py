@@ -174,3 +174,15 @@ def test_a_filmed_shot_loads_and_is_deterministic(tmp_path, monkeypatch):
     assert np.array_equal(redrawn.frames[0], filmed.frames[0])  # no warp at t = 0
     shift = np.abs(redrawn.poses[-1, :, :2] - filmed.poses[-1, :, :2]).max()
     assert 0.5 < shift <= 3.5  # the full redraw at t = 1: a few px
+
+
+def test_the_held_out_plan_shares_no_character_and_clip_with_the_development_plan():
+    """The split never tuned on (--plan heldout) is other motions of the same drawings: no (character, clip) pair of
+    the development set, every clip and character of it drivable, and each redrawn twin has its plain shot."""
+    dev = {(c, clip) for c, clip, _ in realdev_shots.PLAN}
+    held = {(c, clip) for c, clip, _ in realdev_shots.HELDOUT_PLAN}
+    assert not dev & held
+    assert {c for c, _ in held} <= {c for c, _ in dev}  # the humanoid characters the configs drive
+    for c, clip, variant in realdev_shots.HELDOUT_PLAN:
+        if variant == "redrawn":
+            assert (c, clip, "plain") in realdev_shots.HELDOUT_PLAN
