@@ -25,7 +25,7 @@ from ops.geometry.snap import snap_into
 from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
-from ops.segmentation.slits import contact_slits, junction_slits
+from ops.segmentation.slits import contact_slits, junction_slits, parting_slits
 from ops.types import Masks, RefinedMasks, Skeleton, nest_group_list
 from ops.warning_subject import about, inside_point
 
@@ -295,6 +295,7 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     junction_points = np.concatenate([B[j] for B, j in zip(bounds, juncs)]) if bounds else np.zeros((0, 2))
     slits = contact_slits(masks.contacts, taken, domain, junction_points)
     if other_pose is not None:  # the other keyframe tells which parts leave the bodies they cross
+        slits = parting_slits(slits, taken, domain, masks.coverage, pose, skeleton, other_pose)
         touching = np.any(masks.contacts, axis=0) if masks.contacts else None
         ends = np.array([s[e] for s in slits for e in (0, -1)]).reshape(-1, 2)  # a contact's slit may end on a junction
         slits += junction_slits(bounds, juncs, fronts, taken, domain, masks.coverage, pose, skeleton, other_pose,

@@ -4,18 +4,20 @@ and one from each T-junction where a part crosses a body it is not joined to, ou
 A contact's slit follows the middle of its stroke, keeps clear of the occlusion regions (their boundaries
 are mesh constraints it must not cross), and an end near the outline is carried on to it, so the cut opens
 a flap there rather than a slot. An end that a region cut short is carried on to that region's T-junction
-instead, so the two cuts meet.
+instead, so the two cuts meet. An end that stops farther inside is carried on to the outline where a
+neighbouring key takes the two bodies apart (parting_slits): a hand resting on the head, freed.
 """
 from __future__ import annotations
 
 import cv2
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 from skimage.graph import MCP_Geometric
 from skimage.morphology import skeletonize
 
 from ops.geometry.polygon import project_to_polyline
-from ops.segmentation.bones import segment_distance
+from ops.segmentation.bones import bone_radii, segment_distance
 from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of
 from ops.types import Skeleton
 
@@ -27,6 +29,10 @@ MAX_INK_PX = 4.0  # ... and it crosses at most this much character (the stroke a
 JOIN_PX = 2 * AVOID_PX + 3  # a contact slit's end cut short by a region this near a T-junction is carried on to it
 MIN_JOINED_PX = 3  # ... and then this much of it is enough (the rest of the contact runs on inside the region)
 SEPARATE_PX = 16.0  # ... where the other keyframe takes the part this much farther off the body it crosses (a limb's width)
+BRIDGE_PX = 30.0  # a contact's slit that stops inside the mesh this near a loop of its outline is carried on to it
+#                   where the bodies part (parting_slits)
+END_CLEAR_PX = 3.0  # ... nor to within this of another slit: the two would close a loop around a piece of the mesh
+SEAM_BAND = 0.3  # ... between the bodies: |d_f / r_f - d_k / r_k| within this costs no more than paper
 
 
 def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray],
@@ -48,6 +54,91 @@ def contact_slits(contacts: list[np.ndarray], avoid: np.ndarray, domain: list[np
     """slit_of for each contact piece ((H, W) bool) that keeps one, the regions' clearance computed once."""
     clear, band = _clearance(avoid)
     return [s for s in (_slit_along(c, clear, band, domain, junctions) for c in contacts) if s is not None]
+
+
+def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.ndarray], coverage: np.ndarray,
+                  pose: np.ndarray, skeleton: Skeleton, other_pose: np.ndarray | list[np.ndarray]
+                  ) -> list[np.ndarray]:
+    """Contact slits ((n, 2) float64 each, contact_slits) whose end stops inside the mesh, carried on to the
+    outline where the bodies on its two sides part.
+
+    A contact's stroke often runs out where the two bodies' inks merge (a hand drawn against the head, the last
+    pixels of an arm along the body), short of the outline: the slit is then a slot, and the bodies stay sewn
+    around its end. Where a neighbouring key's pose (J, 3) (or one of a list) takes them apart (the bone nearest
+    the end and the nearest bone not its neighbour end SEPARATE_PX farther apart, as junction_slits asks), an
+    end within BRIDGE_PX of a loop of the domain (the outline or a hole's) is carried on to it along the
+    cheapest way through the mesh (`_way_out`, the (H, W) bool regions closed to it) between the two bodies:
+    character costs nothing extra where the two bones are equally far in units of their bodies' radii (the
+    seam between a thin arm and a wide torso lies at the arm's side, not half way between the bones) and
+    INK_COST more beyond SEAM_BAND of that, so the way runs on between the bodies, not across a limb to its far
+    side.
+
+    Never across another slit or to within END_CLEAR_PX of one, and never so that both of a slit's ends lie on
+    one loop: either would close a loop around a piece of the mesh (of two such ends, the one the other key
+    parts less stays). Nor an end at a region (within AVOID_PX + 2 px): the region's T-junction or cut opens
+    it. The pose (J, 3) is the keyframe's."""
+    others = [other_pose] if np.ndim(other_pose) == 2 else list(other_pose)
+    ends_xy = pose[skeleton.bones, :2].astype(np.float64)
+    other_ends = [np.asarray(o)[skeleton.bones, :2].astype(np.float64) for o in others]
+    adjacent = skeleton.adjacent_bones()
+    scale = scale_of(coverage.shape)
+    inside = _fill(domain, coverage.shape)
+    radii = bone_radii(coverage >= 0.5, pose, skeleton)
+    # an end at a region (cut short by its clearance, or carried on to its T-junction) is the region's to open
+    at_region = ndimage.binary_dilation(regions, iterations=AVOID_PX + 2) if regions.any() else regions
+    out = list(slits)
+    for i, slit in enumerate(out):
+        others = [_dense(s) for j, s in enumerate(out) if j != i]
+        taken = cKDTree(np.vstack(others)) if others else None
+        loops = [_nearest_loop(slit[e], domain) for e in (0, -1)]
+        ways = {}  # end (0 first, 1 last) -> (how far the other key parts the bodies, way out, its loop)
+        for n, e in enumerate((0, -1)):
+            p = np.asarray(slit[e], np.float64)
+            if not 0.5 < loops[n][0] <= BRIDGE_PX * scale or _at(at_region, p):
+                continue
+            dist = np.array([segment_distance(p, a, b) for a, b in ends_xy])
+            f = int(np.argmin(dist))
+            bodies = np.flatnonzero(~adjacent[f])
+            if not len(bodies):
+                continue
+            k = int(bodies[np.argmin(dist[bodies])])
+            apart = _parted(p, f, k, ends_xy, other_ends)
+            if apart < SEPARATE_PX * scale:
+                continue
+            seam = _seam(coverage.shape, ends_xy[f], radii[f], ends_xy[k], radii[k])
+            way = _way_out(p, coverage, inside, regions, domain, int(np.ceil(BRIDGE_PX * scale)) + 2, seam,
+                           max_ink=None, max_length=1.5 * BRIDGE_PX * scale)
+            if way is None or (taken is not None and (taken.query(way[-1])[0] < END_CLEAR_PX * scale
+                                                      or taken.query(_dense(way))[0].min() < 1.5)):
+                continue  # it would close a loop with another slit, or cross one
+            ways[n] = (apart, way, _nearest_loop(way[-1], domain)[1])
+        for n in sorted(ways, key=lambda n: ways[n][0]):  # the end the other key parts less gives way
+            other = ways[1 - n][2] if 1 - n in ways else (loops[1 - n][1] if loops[1 - n][0] <= 0.5 else None)
+            if other == ways[n][2]:
+                del ways[n]
+        if 0 in ways:
+            slit = np.vstack([ways[0][1][:0:-1], slit])
+        if 1 in ways:
+            slit = np.vstack([slit, ways[1][1][1:]])
+        out[i] = slit
+    return out
+
+
+def _seam(shape: tuple[int, int], bone_f: np.ndarray, r_f: float, bone_k: np.ndarray, r_k: float) -> np.ndarray:
+    """(H, W) float64 in [0, 1]: 1 on the seam between two bodies ((2, 2) bone segments, radii px), where a
+    pixel's distance to each bone in units of that body's radius is equal, falling to 0 at SEAM_BAND apart."""
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    pts = np.stack([xx, yy], axis=-1).astype(np.float64)
+    rho = segment_distance(pts, *bone_f) / max(r_f, 1.0) - segment_distance(pts, *bone_k) / max(r_k, 1.0)
+    return np.clip(1.0 - np.abs(rho) / SEAM_BAND, 0.0, 1.0)
+
+
+def _parted(p: np.ndarray, f: int, k: int, ends_xy: np.ndarray, other_ends: list[np.ndarray]) -> float:
+    """How much farther, pixels, a (2,) point p carried with bone f lies from bone k at the neighbouring keys'
+    poses than here (the most over them); ends_xy (B, 2, 2) the bones here, other_ends the same there."""
+    here = segment_distance(p, *ends_xy[k])
+    return max(float(segment_distance(_moved_with_bone(p, ends_xy[f], e[f]), *e[k])) - float(here)
+               for e in other_ends)
 
 
 def _clearance(avoid: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
@@ -146,8 +237,7 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
             k = crossed[np.argmin(dist[crossed])]
             if (adjacent[f] & adjacent[k]).any():  # joined through one bone: a sleeve's shoulder, a skirt's hem
                 continue
-            apart = [segment_distance(_moved_with_bone(p, ends_xy[f], e[f]), *e[k]) - dist[k] for e in other_ends]
-            if max(apart) < SEPARATE_PX * scale:  # no neighbouring key takes the part off the body
+            if _parted(p, f, k, ends_xy, other_ends) < SEPARATE_PX * scale:  # no neighbouring key takes it off
                 continue
             slit = _way_out(p, coverage, inside, regions, domain, reach, contacts)
             if slit is not None:
@@ -177,11 +267,13 @@ def _fill(loops: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
 
 
 def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: np.ndarray,
-             domain: list[np.ndarray], reach: int, contacts: np.ndarray | None = None) -> np.ndarray | None:
+             domain: list[np.ndarray], reach: int, contacts: np.ndarray | None = None,
+             max_ink: float | None = MAX_INK_PX, max_length: float = 1.5 * REACH_OUTLINE_PX) -> np.ndarray | None:
     """(n, 2) polyline from junction p to the domain's outline along the cheapest path of pixels (character
-    costs INK_COST, paper and the (H, W) bool contacts' strokes 1; the occlusion regions are closed to it but
-    at p), or None when it crosses more than MAX_INK_PX of character or runs longer than 1.5
-    REACH_OUTLINE_PX."""
+    costs INK_COST, paper 1; the (H, W) contacts, bool or a weight in [0, 1], take that share of a character
+    pixel's cost away: a contact's stroke is where two bodies part anyway; the occlusion regions are closed to
+    it but at p), or None when it crosses more than max_ink px of character (None: any) or runs longer than
+    max_length px."""
     h, w = coverage.shape
     x0, y0 = max(int(p[0]) - reach, 0), max(int(p[1]) - reach, 0)
     x1, y1 = min(int(p[0]) + reach + 1, w), min(int(p[1]) + reach + 1, h)
@@ -190,7 +282,7 @@ def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: n
         return None
     cov = np.clip(coverage[y0:y1, x0:x1].astype(np.float64), 0.0, 1.0)
     if contacts is not None:  # a contact's stroke is where two bodies part anyway: no character to cross
-        cov[contacts[y0:y1, x0:x1]] = 0.0
+        cov *= 1.0 - np.asarray(contacts[y0:y1, x0:x1], np.float64)
     yy, xx = np.mgrid[y0:y1, x0:x1]
     cost = 1.0 + INK_COST * cov
     cost[regions[y0:y1, x0:x1] & (np.hypot(xx - p[0], yy - p[1]) > 1.5)] = np.inf
@@ -205,7 +297,8 @@ def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: n
     path = np.asarray(mcp.traceback(end))  # (n, 2) (row, col), p's pixel first
     pts = path[:, ::-1].astype(np.float64) + [x0, y0]
     length = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
-    if cov[path[:, 0], path[:, 1]].sum() > MAX_INK_PX or length > 1.5 * REACH_OUTLINE_PX or len(pts) < 2:
+    inked = max_ink is not None and cov[path[:, 0], path[:, 1]].sum() > max_ink
+    if inked or length > max_length or len(pts) < 2:
         return None
     _, foot = _nearest_on(pts[-2], domain)  # the last pixel inside the domain, carried on to its outline
     return np.vstack([p[None], pts[1:-1][SLIT_STEP_PX::SLIT_STEP_PX], foot[None]])
@@ -221,3 +314,27 @@ def _nearest_on(point: np.ndarray, loops: list[np.ndarray]) -> tuple[float, np.n
         if dist[0] < best[0]:
             best = (float(dist[0]), L[i] + t * (L[(i + 1) % len(L)] - L[i]))
     return best
+
+
+def _dense(polyline: np.ndarray) -> np.ndarray:
+    """(k, 2) points along an (n, 2) polyline at most a pixel apart, its vertices included."""
+    P = np.asarray(polyline, np.float64).reshape(-1, 2)
+    out = [P[:1]]
+    for a, b in zip(P[:-1], P[1:]):
+        k = max(int(np.ceil(np.linalg.norm(b - a))), 1)
+        out.append(a + (b - a) * (np.arange(1, k + 1) / k)[:, None])
+    return np.vstack(out)
+
+
+def _at(mask: np.ndarray, p: np.ndarray) -> bool:
+    """Whether the (2,) point's pixel is set in the (H, W) bool mask (False off it)."""
+    c, r = int(round(p[0])), int(round(p[1]))
+    return 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and bool(mask[r, c])
+
+
+def _nearest_loop(point: np.ndarray, loops: list[np.ndarray]) -> tuple[float, int]:
+    """(distance, index) of the nearest of closed polylines (n_i, 2) to a (2,) point."""
+    dists = [float(project_to_polyline(np.asarray(point, np.float64)[None], np.asarray(L, np.float64))[1][0])
+             for L in loops]
+    i = int(np.argmin(dists))
+    return dists[i], i

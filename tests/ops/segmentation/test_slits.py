@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ops.geometry.polygon import project_to_polyline
-from ops.segmentation.slits import MAX_INK_PX, junction_slits
+from ops.segmentation.slits import MAX_INK_PX, junction_slits, parting_slits
 from ops.types import Skeleton
 
 SIZE = 80
@@ -117,3 +117,62 @@ def test_a_junction_a_contacts_slit_already_leaves_gets_no_second_slit():
     starts = np.array([s[0] for s in slits])
     assert len(slits) == 2
     assert np.allclose(np.sort(starts, axis=0), np.sort(CORNERS[[1, 3]], axis=0))
+
+
+def arm_along_torso():
+    """A torso (cols 20-40) with an arm hanging against its right side (cols 41-50, rows 20-60), one piece of
+    character; the mesh domain (the union grown by 3 px); a contact's slit down the seam that stops inside the
+    mesh at both ends (rows 30-50, 13 px from the outline); a skeleton root - neck up the torso, then shoulder,
+    elbow, hand down the arm."""
+    cov = np.zeros((SIZE, SIZE), np.float32)
+    cov[10:71, 20:41] = 1.0
+    cov[20:61, 41:51] = 1.0
+    grown = cv2.dilate((cov > 0).astype(np.uint8), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7)))
+    contours, _ = cv2.findContours(grown, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    domain = [contours[0].reshape(-1, 2).astype(np.float64)]
+    slit = np.array([[40.5, 30.0 + 3.0 * i] for i in range(7)] + [[40.5, 50.0]])
+    pose = np.array([[30.0, 70.0, 0.0], [30.0, 10.0, 0.0], [45.0, 12.0, 0.0], [45.0, 35.0, 0.0], [45.0, 58.0, 0.0]])
+    skeleton = Skeleton(joints=("root", "neck", "shoulder", "elbow", "hand"), parents=np.array([-1, 0, 1, 2, 3]))
+    return cov, domain, slit, pose, skeleton
+
+
+def test_a_contacts_slit_is_carried_to_the_outline_where_the_other_key_parts_the_bodies():
+    """The forearm lifted off the torso at the other key: the slit's lower end (beside the forearm, which parts)
+    goes on to the outline, so the arm is a flap; its upper end (beside the upper arm, which stays) does not. A
+    forearm that stays along the torso keeps the slit as it is."""
+    cov, domain, slit, pose, skeleton = arm_along_torso()
+    raised = pose.copy()
+    raised[4, :2] = [68.0, 35.0]  # the hand out to the side: the forearm level
+    regions = np.zeros((SIZE, SIZE), bool)
+    [out] = parting_slits([slit], regions, domain, cov, pose, skeleton, raised)
+    assert np.allclose(out[: len(slit)], slit)  # the upper end stays where it was
+    _, d = project_to_polyline(out[-1][None], domain[0])
+    assert d[0] < 1e-6 and len(out) > len(slit)  # the lower end reaches the outline
+    way = out[len(slit):]
+    assert out[-1][1] > 60.0  # on down the seam to the outline at the arm's foot, not across the arm
+    assert np.all(np.abs(way[way[:, 1] <= 60.0, 0] - 40.5) < 2.0)
+    [kept] = parting_slits([slit], regions, domain, cov, pose, skeleton, pose)
+    assert np.array_equal(kept, slit)
+    nudged = pose.copy()
+    nudged[4, :2] += [3.0, 0.0]  # the hand a few pixels off: less than SEPARATE_PX
+    [kept] = parting_slits([slit], regions, domain, cov, pose, skeleton, nudged)
+    assert np.array_equal(kept, slit)
+
+
+def test_a_parting_slit_never_cuts_a_piece_off_nor_meets_another_slits_end():
+    """Both ends part at the other key (the whole arm swung off the torso): only the end that parts more is
+    carried out, since with both on the outline the slit would cut the arm off the mesh. An end whose way out
+    lands on another slit's end stays (the two would close a loop)."""
+    cov, domain, slit, pose, skeleton = arm_along_torso()
+    swung = pose.copy()
+    swung[3:, :2] = [[68.0, 12.0], [91.0, 12.0]]  # the upper arm level, the forearm on out
+    regions = np.zeros((SIZE, SIZE), bool)
+    [out] = parting_slits([slit], regions, domain, cov, pose, skeleton, swung)
+    on = [project_to_polyline(out[e][None], domain[0])[1][0] < 1e-6 for e in (0, -1)]
+    assert sum(on) == 1
+    raised = pose.copy()
+    raised[4, :2] = [68.0, 35.0]
+    [alone] = parting_slits([slit], regions, domain, cov, pose, skeleton, raised)
+    other = np.array([alone[-1] + [8.0, 0.0], alone[-1] + [1.0, 0.5]])  # another slit ending where that way lands
+    out, kept_other = parting_slits([slit, other], regions, domain, cov, pose, skeleton, raised)
+    assert np.array_equal(out, slit) and np.array_equal(kept_other, other)
