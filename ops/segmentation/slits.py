@@ -88,8 +88,8 @@ def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.
     at_region = ndimage.binary_dilation(regions, iterations=AVOID_PX + 2) if regions.any() else regions
     out = list(slits)
     for i, slit in enumerate(out):
-        others = [_dense(s) for j, s in enumerate(out) if j != i]
-        taken = cKDTree(np.vstack(others)) if others else None
+        rest = [_dense(s) for j, s in enumerate(out) if j != i]
+        taken = cKDTree(np.vstack(rest)) if rest else None
         loops = [_nearest_loop(slit[e], domain) for e in (0, -1)]
         ways = {}  # end (0 first, 1 last) -> (how far the other key parts the bodies, way out, its loop)
         for n, e in enumerate((0, -1)):
