@@ -57,3 +57,15 @@ def rasterize(P: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     pts = np.round(P * 16).astype(np.int32).reshape(-1, 1, 2)  # 4 fractional bits
     cv2.fillPoly(img, [pts], 1, lineType=cv2.LINE_8, shift=4)
     return img > 0
+
+
+def densify(P: np.ndarray, seg: float, closed: bool = True) -> np.ndarray:
+    """(m, 2) polyline with every edge of the (n, 2) polyline P split to length <= seg pixels; closed: P's last
+    vertex joins its first (and is not repeated), else P is open and ends at its last vertex."""
+    P = np.asarray(P, np.float64).reshape(-1, 2)
+    E = (np.roll(P, -1, axis=0) - P) if closed else np.diff(P, axis=0)
+    k = np.maximum(1, np.ceil(np.linalg.norm(E, axis=1) / seg).astype(int))
+    edge = np.repeat(np.arange(len(E)), k)
+    frac = np.concatenate([np.arange(c) / c for c in k]) if len(k) else np.zeros(0)
+    out = P[edge] + frac[:, None] * E[edge]
+    return out if closed else np.vstack([out, P[-1:]])

@@ -20,7 +20,7 @@ from scipy import ndimage
 
 from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, triangulate_pslg
-from ops.geometry.polygon import polygon_area, project_to_polyline, rasterize
+from ops.geometry.polygon import densify, polygon_area, project_to_polyline, rasterize
 from ops.geometry.snap import snap_into
 from ops.segmentation.contacts import thin_overlaps
 from ops.segmentation.domain import mesh_domain
@@ -78,15 +78,6 @@ def mask_boundary(mask: np.ndarray, eps: float = DP_EPS_PX) -> np.ndarray:
     """(n, 2) float64 outer boundary of a (H, W) bool mask's largest component, pixels, DP-simplified, positive area."""
     Q, _ = simplify(_largest_contour(mask), eps)
     return _orient(Q)
-
-
-def densify(P: np.ndarray, seg: float = SEGMENT_PX) -> np.ndarray:
-    """(m, 2) closed polyline with every edge of the (n, 2) closed polyline P split to length <= seg pixels."""
-    E = np.roll(P, -1, axis=0) - P
-    k = np.maximum(1, np.ceil(np.linalg.norm(E, axis=1) / seg).astype(int))
-    edge = np.repeat(np.arange(len(P)), k)
-    frac = np.concatenate([np.arange(c) / c for c in k])
-    return P[edge] + frac[:, None] * E[edge]
 
 
 def _insert_points(P: np.ndarray, Q: np.ndarray, reuse_px: float = 0.75) -> tuple[np.ndarray, np.ndarray]:
@@ -147,7 +138,7 @@ def _handles(B: np.ndarray, jv: np.ndarray, J: np.ndarray, pull: float) -> np.nd
 
 def _deform_boundary(P: np.ndarray, J: np.ndarray, warnings: list[str]) -> np.ndarray:
     """(m, 2) deformed outer boundary loop of the region inside the closed (n, 2) polyline P, through J (k, 2)."""
-    D, jpos = _insert_points(densify(P), J)
+    D, jpos = _insert_points(densify(P, SEGMENT_PX), J)
     area = abs(polygon_area(D))
     res = triangulate_pslg([D], max_area=max(SEGMENT_PX**2, area / 2000.0))
     warnings.extend(res.warnings)

@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 from skimage.graph import MCP_Geometric
 from skimage.morphology import skeletonize
 
-from ops.geometry.polygon import project_to_polyline
+from ops.geometry.polygon import densify, project_to_polyline
 from ops.segmentation.bones import bone_radii, segment_distance
 from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of
 from ops.types import Skeleton
@@ -77,24 +77,26 @@ def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.
     one loop: either would close a loop around a piece of the mesh (of two such ends, the one the other key
     parts less stays). Nor an end at a region (within AVOID_PX + 2 px): the region's T-junction or cut opens
     it. The pose (J, 3) is the keyframe's."""
+    scale = scale_of(coverage.shape)
+    loops = [[_nearest_on(s[e], domain) for e in (0, -1)] for s in slits]  # per slit, per end: (dist, foot, loop)
+    if not any(0.5 < d <= BRIDGE_PX * scale for ends in loops for d, _, _ in ends):
+        return list(slits)  # every end on a loop or far inside: nothing to carry on (most keys)
     others = [other_pose] if np.ndim(other_pose) == 2 else list(other_pose)
     ends_xy = pose[skeleton.bones, :2].astype(np.float64)
     other_ends = [np.asarray(o)[skeleton.bones, :2].astype(np.float64) for o in others]
     adjacent = skeleton.adjacent_bones()
-    scale = scale_of(coverage.shape)
     inside = _fill(domain, coverage.shape)
     radii = bone_radii(coverage >= 0.5, pose, skeleton)
+    reach = int(np.ceil(BRIDGE_PX * scale)) + 2
     # an end at a region (cut short by its clearance, or carried on to its T-junction) is the region's to open
     at_region = ndimage.binary_dilation(regions, iterations=AVOID_PX + 2) if regions.any() else regions
     out = list(slits)
     for i, slit in enumerate(out):
-        rest = [_dense(s) for j, s in enumerate(out) if j != i]
-        taken = cKDTree(np.vstack(rest)) if rest else None
-        loops = [_nearest_loop(slit[e], domain) for e in (0, -1)]
+        taken = None  # the other slits' points, made when a way out is found
         ways = {}  # end (0 first, 1 last) -> (how far the other key parts the bodies, way out, its loop)
         for n, e in enumerate((0, -1)):
             p = np.asarray(slit[e], np.float64)
-            if not 0.5 < loops[n][0] <= BRIDGE_PX * scale or _at(at_region, p):
+            if not 0.5 < loops[i][n][0] <= BRIDGE_PX * scale or _at(at_region, p):
                 continue
             dist = np.array([segment_distance(p, a, b) for a, b in ends_xy])
             f = int(np.argmin(dist))
@@ -105,15 +107,21 @@ def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.
             apart = _parted(p, f, k, ends_xy, other_ends)
             if apart < SEPARATE_PX * scale:
                 continue
-            seam = _seam(coverage.shape, ends_xy[f], radii[f], ends_xy[k], radii[k])
-            way = _way_out(p, coverage, inside, regions, domain, int(np.ceil(BRIDGE_PX * scale)) + 2, seam,
-                           max_ink=None, max_length=1.5 * BRIDGE_PX * scale)
-            if way is None or (taken is not None and (taken.query(way[-1])[0] < END_CLEAR_PX * scale
-                                                      or taken.query(_dense(way))[0].min() < 1.5)):
+            seam = _seam(coverage.shape, p, reach, ends_xy[f], radii[f], ends_xy[k], radii[k])
+            way = _way_out(p, coverage, inside, regions, domain, reach, seam, max_ink=None,
+                           max_length=1.5 * BRIDGE_PX * scale)
+            if way is None:
+                continue
+            if taken is None:
+                rest = [densify(s, 1.0, closed=False) for j, s in enumerate(out) if j != i]
+                taken = cKDTree(np.vstack(rest)) if rest else False
+            if taken and (taken.query(way[-1])[0] < END_CLEAR_PX * scale
+                          or taken.query(densify(way, 1.0, closed=False))[0].min() < 1.5):
                 continue  # it would close a loop with another slit, or cross one
-            ways[n] = (apart, way, _nearest_loop(way[-1], domain)[1])
+            ways[n] = (apart, way, _nearest_on(way[-1], domain)[2])
         for n in sorted(ways, key=lambda n: ways[n][0]):  # the end the other key parts less gives way
-            other = ways[1 - n][2] if 1 - n in ways else (loops[1 - n][1] if loops[1 - n][0] <= 0.5 else None)
+            d, _, loop = loops[i][1 - n]
+            other = ways[1 - n][2] if 1 - n in ways else (loop if d <= 0.5 else None)
             if other == ways[n][2]:
                 del ways[n]
         if 0 in ways:
@@ -124,13 +132,19 @@ def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.
     return out
 
 
-def _seam(shape: tuple[int, int], bone_f: np.ndarray, r_f: float, bone_k: np.ndarray, r_k: float) -> np.ndarray:
+def _seam(shape: tuple[int, int], around: np.ndarray, reach: int, bone_f: np.ndarray, r_f: float,
+          bone_k: np.ndarray, r_k: float) -> np.ndarray:
     """(H, W) float64 in [0, 1]: 1 on the seam between two bodies ((2, 2) bone segments, radii px), where a
-    pixel's distance to each bone in units of that body's radius is equal, falling to 0 at SEAM_BAND apart."""
-    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    pixel's distance to each bone in units of that body's radius is equal, falling to 0 at SEAM_BAND apart;
+    computed within `reach` px of the (2,) point `around` (where _way_out looks), 0 beyond."""
+    out = np.zeros(shape, np.float64)
+    x0, y0 = max(int(around[0]) - reach, 0), max(int(around[1]) - reach, 0)
+    x1, y1 = min(int(around[0]) + reach + 1, shape[1]), min(int(around[1]) + reach + 1, shape[0])
+    yy, xx = np.mgrid[y0:y1, x0:x1]
     pts = np.stack([xx, yy], axis=-1).astype(np.float64)
     rho = segment_distance(pts, *bone_f) / max(r_f, 1.0) - segment_distance(pts, *bone_k) / max(r_k, 1.0)
-    return np.clip(1.0 - np.abs(rho) / SEAM_BAND, 0.0, 1.0)
+    out[y0:y1, x0:x1] = np.clip(1.0 - np.abs(rho) / SEAM_BAND, 0.0, 1.0)
+    return out
 
 
 def _parted(p: np.ndarray, f: int, k: int, ends_xy: np.ndarray, other_ends: list[np.ndarray]) -> float:
@@ -179,7 +193,7 @@ def _slit_along(piece: np.ndarray, clear: np.ndarray | None, band: np.ndarray | 
     path = path[:: SLIT_STEP_PX][:-1].tolist() + [path[-1].tolist()]
     ends = []
     for end, join in zip((path[0], path[-1]), joins):
-        dist, foot = _nearest_on(np.asarray(end, np.float64), domain)
+        dist, foot, _ = _nearest_on(np.asarray(end, np.float64), domain)
         ends.append(join if join is not None else foot.tolist() if 0.5 <= dist <= REACH_OUTLINE_PX else None)
     out = ([ends[0]] if ends[0] else []) + path + ([ends[1]] if ends[1] else [])
     return np.asarray(out, np.float64)
@@ -300,41 +314,23 @@ def _way_out(p: np.ndarray, coverage: np.ndarray, inside: np.ndarray, regions: n
     inked = max_ink is not None and cov[path[:, 0], path[:, 1]].sum() > max_ink
     if inked or length > max_length or len(pts) < 2:
         return None
-    _, foot = _nearest_on(pts[-2], domain)  # the last pixel inside the domain, carried on to its outline
+    _, foot, _ = _nearest_on(pts[-2], domain)  # the last pixel inside the domain, carried on to its outline
     return np.vstack([p[None], pts[1:-1][SLIT_STEP_PX::SLIT_STEP_PX], foot[None]])
 
 
-def _nearest_on(point: np.ndarray, loops: list[np.ndarray]) -> tuple[float, np.ndarray]:
-    """(distance, (2,) foot) of a (2,) point on the nearest of closed polylines (n_i, 2)."""
-    best = (np.inf, np.asarray(point, np.float64))
-    for L in loops:
+def _nearest_on(point: np.ndarray, loops: list[np.ndarray]) -> tuple[float, np.ndarray, int]:
+    """(distance, (2,) foot, index) of a (2,) point on the nearest of closed polylines (n_i, 2)."""
+    best = (np.inf, np.asarray(point, np.float64), -1)
+    for k, L in enumerate(loops):
         L = np.asarray(L, np.float64)
         param, dist = project_to_polyline(np.asarray(point, np.float64)[None], L)
         i, t = int(param[0]), float(param[0] % 1.0)
         if dist[0] < best[0]:
-            best = (float(dist[0]), L[i] + t * (L[(i + 1) % len(L)] - L[i]))
+            best = (float(dist[0]), L[i] + t * (L[(i + 1) % len(L)] - L[i]), k)
     return best
-
-
-def _dense(polyline: np.ndarray) -> np.ndarray:
-    """(k, 2) points along an (n, 2) polyline at most a pixel apart, its vertices included."""
-    P = np.asarray(polyline, np.float64).reshape(-1, 2)
-    out = [P[:1]]
-    for a, b in zip(P[:-1], P[1:]):
-        k = max(int(np.ceil(np.linalg.norm(b - a))), 1)
-        out.append(a + (b - a) * (np.arange(1, k + 1) / k)[:, None])
-    return np.vstack(out)
 
 
 def _at(mask: np.ndarray, p: np.ndarray) -> bool:
     """Whether the (2,) point's pixel is set in the (H, W) bool mask (False off it)."""
     c, r = int(round(p[0])), int(round(p[1]))
     return 0 <= r < mask.shape[0] and 0 <= c < mask.shape[1] and bool(mask[r, c])
-
-
-def _nearest_loop(point: np.ndarray, loops: list[np.ndarray]) -> tuple[float, int]:
-    """(distance, index) of the nearest of closed polylines (n_i, 2) to a (2,) point."""
-    dists = [float(project_to_polyline(np.asarray(point, np.float64)[None], np.asarray(L, np.float64))[1][0])
-             for L in loops]
-    i = int(np.argmin(dists))
-    return dists[i], i

@@ -292,3 +292,17 @@ def test_slit_from_outline_to_outline_splits_the_mesh():
     for c in (0, 1):
         y = V2[label == c][:, 1]
         assert (y <= 50.0 + 1e-9).all() or (y >= 50.0 - 1e-9).all()
+
+
+def test_densify_splits_every_edge_and_keeps_the_vertices_closed_or_open():
+    from ops.geometry.polygon import densify
+
+    P = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 3.0]])
+    for closed in (True, False):
+        D = densify(P, 1.0, closed=closed)
+        steps = np.linalg.norm(np.diff(np.vstack([D, D[:1]]) if closed else D, axis=0), axis=1)
+        assert steps.max() <= 1.0 + 1e-12 and steps.min() > 0
+        assert all(np.isclose(D, v).all(axis=1).any() for v in P)  # every vertex kept, in order
+        # closed: the edge back to the start (10.4 px) is split too, into 11; open: it ends on P's last vertex
+        assert len(D) == (10 + 3 + 11 if closed else 10 + 3 + 1)
+        assert np.allclose(D[-1], [10.0, 3.0]) != closed
