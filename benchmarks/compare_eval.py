@@ -69,12 +69,11 @@ def compare(before: ShotScores, after: ShotScores, lane_goal: float = LANE_GOAL_
     with_lanes = table["lane_before"].notna() | table["lane_after"].notna()
     totals = {
         "shots": len(shots), "only_in_one": only,
-        "mean_before": float(table["ours_before"].mean()) if shots else float("nan"),
-        "mean_after": float(table["ours_after"].mean()) if shots else float("nan"),
+        "mean_before": float(table["ours_before"].mean()), "mean_after": float(table["ours_after"].mean()),
         "with_rife": int(with_rife.sum()),
         "ahead_before": int((table["ours_before"] > table["rife"])[with_rife].sum()),
         "ahead_after": int((table["ours_after"] > table["rife"])[with_rife].sum()),
-        "with_lanes": int(with_lanes.sum()),
+        "with_lanes": int(with_lanes.sum()), "lane_goal": lane_goal,
         "lanes_before": int((table["lane_before"] >= lane_goal).sum()),
         "lanes_after": int((table["lane_after"] >= lane_goal).sum()),
     }
@@ -82,11 +81,11 @@ def compare(before: ShotScores, after: ShotScores, lane_goal: float = LANE_GOAL_
 
 
 def _db(v: float, sign: bool = False) -> str:
+    """A dB value to 3 decimals (signed with `sign`), blank where there is none."""
     return "" if not np.isfinite(v) else (f"{v:+.3f}" if sign else f"{v:.3f}")
 
 
-def report(table: pd.DataFrame, totals: dict, moved: float = 0.005, everything: bool = False,
-           lane_goal: float = LANE_GOAL_DB) -> str:
+def report(table: pd.DataFrame, totals: dict, moved: float = 0.005, everything: bool = False) -> str:
     """The comparison as text: a row per shot that moved by `moved` dB or more (every shot with `everything`),
     then the totals."""
     rows = table if everything else table[table["change"].abs() >= moved]
@@ -100,7 +99,7 @@ def report(table: pd.DataFrame, totals: dict, moved: float = 0.005, everything: 
     t = totals
     lines.append(f"{t['shots']} shots: ours {t['mean_before']:.3f} -> {t['mean_after']:.3f} dB "
                  f"({t['mean_after'] - t['mean_before']:+.3f}); ahead of RIFE-direct {t['ahead_before']} -> "
-                 f"{t['ahead_after']} of {t['with_rife']}; lower lane >= {lane_goal:g} dB {t['lanes_before']} -> "
+                 f"{t['ahead_after']} of {t['with_rife']}; lower lane >= {t['lane_goal']:g} dB {t['lanes_before']} -> "
                  f"{t['lanes_after']} of {t['with_lanes']}")
     if t["only_in_one"]:
         lines.append(f"evaluated in one folder only (left out): {', '.join(t['only_in_one'])}")
@@ -116,7 +115,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--lane-goal", type=float, default=LANE_GOAL_DB, help="dB: the lane agreement counted")
     args = ap.parse_args(argv)
     table, totals = compare(read_scores(args.before), read_scores(args.after), args.lane_goal)
-    print(report(table, totals, args.moved, args.all, args.lane_goal))
+    print(report(table, totals, args.moved, args.all))
 
 
 if __name__ == "__main__":
