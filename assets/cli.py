@@ -147,6 +147,8 @@ def _parser() -> argparse.ArgumentParser:
                               q.add_argument("--bvh-frames", default=None, metavar="START:END:STEP",
                                              help="a Python slice of the clip's frames (default: all, at most 30 fps)"))
     motion_flags(n)
+    n.add_argument("--keep-canvas", action="store_true",
+                   help="with --bvh: keep the texture's size even where the motion leaves it (default: grow the canvas)")
     mo = sub.add_parser("motion", help="drive a shot's skeleton by a BVH clip or by points tracked in a video")
     mo.add_argument("shot_dir")
     motion_flags(mo)
@@ -391,9 +393,9 @@ def _new(args) -> int:
             raise ShotError(args.images[0], "IMAGE", "--animated-drawings brings its own drawing (texture.png)",
                             "give either images or --animated-drawings")
         starting.new_from_animated_drawings(args.shot_dir, args.animated_drawings, args.bvh, args.retarget,
-                                            args.bvh_frames)
+                                            args.bvh_frames, keep_canvas=args.keep_canvas)
     else:
-        if args.bvh or args.retarget or args.bvh_frames:
+        if args.bvh or args.retarget or args.bvh_frames or args.keep_canvas:
             raise ShotError(args.shot_dir, "--bvh", "a clip drives a shot that exists",
                             "run `inbetween new` first, then `inbetween motion SHOT_DIR --bvh ... --retarget ...`")
         starting.new_from_images(args.shot_dir, args.images, args.skeleton, args.key_frames)

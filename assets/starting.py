@@ -12,16 +12,18 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
 
 from ops.errors import ShotError
 from ops.motion.animated_drawings import read_character, read_retarget
 from ops.motion.bvh import frame_slice, parse_bvh
+from ops.motion.canvas import carried_with_bones, outline_points, pad_drawing, padding_for
 from ops.motion.clip import Clip
 from ops.motion.fit import fit_clip
 from ops.motion.retarget import retarget
 from ops.motion.shot_v2 import as_v2, key_poses, new_shot, pose_json, write_json
 from ops.motion.track import read_points, read_video, track, tracks_to_clip
-from ops.shotio.image_io import pixel_problem, read_image
+from ops.shotio.image_io import pixel_problem, read_image, write_image
 from ops.shotio.load import MAX_FRAMES, read_shot_json
 from ops.skeleton.depth import depth_order
 from ops.skeleton.placement import place_template
@@ -101,6 +103,13 @@ def _copy(src: Path, dst: Path) -> None:
     shutil.copyfile(src, dst)
 
 
+def _write_new(dst: Path, image: np.ndarray) -> None:
+    """Write a keyframe image the shot makes (a drawing on a grown canvas); refuses to replace an existing file."""
+    if dst.exists():
+        raise ShotError(dst, "IMAGE", "already exists in the shot directory", "start the shot in an empty directory")
+    write_image(dst, image)
+
+
 def new_from_images(shot_dir: str | Path, images: list[str | Path], skeleton: str = "humanoid",
                     key_frames: str | None = None, say: Say = print) -> Path:
     """`inbetween new SHOT_DIR IMAGE ...`: copy the drawings in as keyframes, place the template on each."""
@@ -172,8 +181,12 @@ def _bvh_clip(bvh_path: str | Path, retarget_path: str | Path | None, frames_spe
 
 def new_from_animated_drawings(shot_dir: str | Path, char_cfg: str | Path, bvh: str | Path | None = None,
                                retarget_cfg: str | Path | None = None, bvh_frames: str | None = None,
-                               say: Say = print) -> Path:
-    """`inbetween new SHOT_DIR --animated-drawings CHAR_CFG.yaml [--bvh ... --retarget ...]`: a one-drawing shot."""
+                               say: Say = print, keep_canvas: bool = False) -> Path:
+    """`inbetween new SHOT_DIR --animated-drawings CHAR_CFG.yaml [--bvh ... --retarget ...]`: a one-drawing shot.
+
+    With a clip, the canvas grows where the motion takes the character outside the texture (ops.motion.canvas):
+    key0.png and key0_fg.png are then the drawing and its mask on the larger canvas, and the poses move with
+    them. keep_canvas: the texture's own size, the frames cut where the character leaves it."""
     shot_dir = Path(shot_dir)
     _refuse_existing(shot_dir)
     ch = read_character(char_cfg)
@@ -200,22 +213,40 @@ def new_from_animated_drawings(shot_dir: str | Path, char_cfg: str | Path, bvh: 
         warnings += clip.warnings
         decisions = []
     else:
-        if retarget_cfg is not None or bvh_frames is not None:
-            raise ShotError("--retarget", "--bvh", "--retarget and --bvh-frames need --bvh", "give --bvh CLIP.bvh")
+        if retarget_cfg is not None or bvh_frames is not None or keep_canvas:
+            raise ShotError("--retarget", "--bvh", "--retarget, --bvh-frames and --keep-canvas need --bvh",
+                            "give --bvh CLIP.bvh")
         order = depth_order(img, mask, ch.pose, sk)
         key[:, 2] = order.z
         poses, idx, decisions = key[None], np.array([0]), order.decisions
 
+    pad = (0, 0, 0, 0)
+    if bvh is not None and not keep_canvas:
+        pad = padding_for(carried_with_bones(outline_points(mask), key, poses, sk), ch.size)
+        poses = poses.copy()
+        poses[:, :, 0] += pad[0]
+        poses[:, :, 1] += pad[1]
+
     shot_dir.mkdir(parents=True, exist_ok=True)
-    _copy(ch.texture, shot_dir / "key0.png")
-    fg = None
-    if ch.mask is not None:
-        _copy(ch.mask, shot_dir / "key0_fg.png")
-        fg = ["key0_fg.png"]
+    fg = ["key0_fg.png"] if ch.mask is not None else None
+    if any(pad):  # the paper around the character: off its mask by a few pixels (the outline's soft rim)
+        outside = ~ndimage.binary_dilation(mask, iterations=4)
+        _write_new(shot_dir / "key0.png", pad_drawing(img, pad, outside))
+        if fg:
+            _write_new(shot_dir / "key0_fg.png", np.pad(mask, ((pad[1], pad[3]), (pad[0], pad[2]))).astype(np.float32))
+    else:
+        _copy(ch.texture, shot_dir / "key0.png")
+        if fg:
+            _copy(ch.mask, shot_dir / "key0_fg.png")
     data = new_shot(["key0.png"], [0], ch.joints, ch.parents, list(range(len(poses))), poses, foreground=fg)
     write_json(shot_dir / "shot.json", data)
     say(f"key0.png (from {ch.texture}): {len(ch.joints)} joints from {Path(char_cfg).name}"
         + (", mask.png as the manual foreground (masks.foreground[0])" if fg else ", no mask.png: predicted"))
+    if any(pad):
+        h, w = ch.size
+        say(f"canvas: {w}x{h} -> {w + pad[0] + pad[2]}x{h + pad[1] + pad[3]} (left {pad[0]}, top {pad[1]}, right "
+            f"{pad[2]}, bottom {pad[3]} px) so that the motion stays inside; the drawing sits at ({pad[0]}, {pad[1]}) "
+            "in key0.png (--keep-canvas keeps the texture's size)")
     _say_pose(say, ch.joints, poses[0], None)
     _say_depth(say, sk, decisions)
     for w in warnings:

@@ -48,6 +48,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from ops.segmentation.bones import bone_depths  # noqa: E402
+from ops.segmentation.contacts import scale_of  # noqa: E402
 from ops.segmentation.foreground import segment_foreground  # noqa: E402
 from ops.segmentation.occlusion import predict_occlusion as skeleton_occlusion  # noqa: E402
 from ops.segmentation.occlusion_drawing import occlusion_marks, shape_by_drawing  # noqa: E402
@@ -130,7 +131,7 @@ def front_accuracy(names: list[str], n: int, cache: Path, bvh: str | None) -> No
             if not truth:
                 continue
             mask, radii, _ = occlusion_marks(d["image"], fg, pose, sk)
-            contrast = outline_contrast(d["image"])
+            contrast = outline_contrast(d["image"], scale_of(fg))
             found = {(a, b): (region, read_front(region, a, b, contrast, fg, pose, sk, radii).front)
                      for a, b, region in pair_components(mask, pose, sk, radii)}
             depth = bone_depths(pose, sk)

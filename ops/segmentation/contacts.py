@@ -68,7 +68,7 @@ def stroke_contacts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarra
     if not body.any() or len(skeleton.bones) < 2:
         return []
     fy, fx, bone_dist, ys, xs, owner = _owners(foreground, body, labels, holds, pose, skeleton)
-    scale = scale_of(foreground.shape)
+    scale = scale_of(foreground)
     side = int(round(SIDE_PX * scale))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * side + 1,) * 2)
     near = np.zeros((len(skeleton.bones),) + foreground.shape, bool)
@@ -157,9 +157,10 @@ def drawn_bodies(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, 
     return owned
 
 
-def stroke_reach(shape: tuple[int, int]) -> int:
-    """How far (pixels) a stroke reaches from the body it outlines, for a drawing of (H, W) pixels."""
-    return int(round(STROKE_PX * scale_of(shape)))
+def stroke_reach(character: np.ndarray) -> int:
+    """How far (pixels) a stroke reaches from the body it outlines, for a character whose (H, W) foreground is
+    given (scale_of)."""
+    return int(round(STROKE_PX * scale_of(character)))
 
 
 def _touching(near: np.ndarray, parts: np.ndarray, foreground: np.ndarray, pose: np.ndarray, skeleton: Skeleton,
@@ -215,8 +216,8 @@ def drawn_parts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, s
     """
     rgb = np.asarray(drawing, np.float32)[..., :3] if drawing.ndim == 3 else np.asarray(drawing, np.float32)[..., None]
     lum = rgb.mean(axis=-1)
-    scale = scale_of(foreground.shape)
-    reach = stroke_reach(foreground.shape)
+    scale = scale_of(foreground)
+    reach = int(round(STROKE_PX * scale))
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2)
     stroke = foreground & ((cv2.dilate(lum, kernel) - lum) > STROKE_CONTRAST)
     labels, n = _trapped_ball(foreground & ~stroke, TRAP_PX * scale)
@@ -235,17 +236,31 @@ def drawn_parts(drawing: np.ndarray, foreground: np.ndarray, pose: np.ndarray, s
     return stroke, labels.astype(np.int64), holds
 
 
-def scale_of(shape: tuple[int, int]) -> float:
-    """How many times a drawing of (H, W) pixels is larger than the reference (at least 1)."""
-    return max(1.0, float(np.hypot(*shape[:2])) / REFERENCE_DIAG_PX)
+def scale_of(character: np.ndarray) -> float:
+    """How many times a character is larger than the reference drawing (at least 1): the diagonal of the box
+    around the nonzero pixels of an (H, W) array (its foreground, its coverage) over REFERENCE_DIAG_PX.
+
+    The character's own size, not its canvas's: the same drawing on a larger page (a canvas grown for the
+    motion, a scan with a wide margin) reads its strokes alike. A 256 x 256 keyframe is at most the reference,
+    so every such drawing has scale 1."""
+    rows = np.flatnonzero(np.any(character, axis=1))
+    if not len(rows):
+        return 1.0
+    cols = np.flatnonzero(np.any(character, axis=0))
+    return scale_of_box(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1)
 
 
-def thin_overlaps(regions: list[np.ndarray], contacts: list[np.ndarray]) -> np.ndarray:
+def scale_of_box(height: float, width: float) -> float:
+    """scale_of for a character whose box is (height, width) pixels."""
+    return max(1.0, float(np.hypot(height, width)) / REFERENCE_DIAG_PX)
+
+
+def thin_overlaps(regions: list[np.ndarray], contacts: list[np.ndarray], scale: float = 1.0) -> np.ndarray:
     """(R,) bool: which (H, W) bool overlap regions lie along the (H, W) bool contacts, THIN_SHARE of their
-    pixels within SIDE_PX + 1 of one (the band a contact's two sides span)."""
+    pixels within SIDE_PX + 1 of one (the band a contact's two sides span); scale: the character's (scale_of)."""
     if not regions or not contacts:
         return np.zeros(len(regions), bool)
-    side = int(round(SIDE_PX * scale_of(regions[0].shape)))
+    side = int(round(SIDE_PX * scale))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * side + 3,) * 2)
     band = cv2.dilate(np.any(contacts, axis=0).astype(np.uint8), disc) > 0
     return np.array([(r & band).sum() >= THIN_SHARE * max(int(r.sum()), 1) for r in regions], bool)

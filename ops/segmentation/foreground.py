@@ -72,6 +72,12 @@ def close_radius(shape: tuple[int, int]) -> int:
     return max(2, int(round(CLOSE_SHARE * max(shape))))
 
 
+def _box(mask: np.ndarray) -> tuple[int, int]:
+    """(height, width) pixels of the box around an (H, W) bool mask's pixels ((H, W) when empty)."""
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    return (int(rows[-1] - rows[0] + 1), int(cols[-1] - cols[0] + 1)) if len(rows) else mask.shape
+
+
 def closing(mask: np.ndarray, radius: int) -> np.ndarray:
     """(H, W) bool morphological closing with a disc; padded so the frame border does not glue ink to it."""
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius + 1,) * 2)
@@ -244,7 +250,7 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
         )
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
-    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(mask.shape)) & mask
+    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(_box(mask))) & mask  # the character's size
     reach = past_margin(mask) & ~holes
     coverage, colour = unmix(
         rgb, page.paper.rgb, mask, reach, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,

@@ -121,7 +121,7 @@ def propose_t_junctions(masks: Masks | RefinedMasks, pose: np.ndarray, skeleton:
     stems = stem_map[:, ij[:, 0], ij[:, 1]].T.astype(np.float64)
     stems /= np.maximum(np.linalg.norm(stems, axis=1, keepdims=True), 1e-9)
     points = to_keyframe(work, frame)
-    keep = _merge(points, scores, MERGE_PX * scale_of(masks.foreground.shape))
+    keep = _merge(points, scores, MERGE_PX * scale_of(masks.foreground))
     points, scores, stems = points[keep], scores[keep], stems[keep]
     region = np.full(len(keep), -1, np.int64)
     if masks.occlusion and len(keep):

@@ -37,7 +37,7 @@ def nest_crossed_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], bod
     adjacent = skeleton.adjacent_bones()
     limbs = _limbs(skeleton)
     apart = ~(limbs[:, None] & limbs[None, :] & _twins(skeleton))  # pairs that cannot cross: twin limbs only
-    min_px = MIN_CROSSING_PX * scale_of(body.shape) ** 2
+    min_px = MIN_CROSSING_PX * scale_of(body) ** 2
     out_r, out_f, out_g, notes = [], [], [], []
     queue = [(r, f, -1) for r, f in zip(regions, fronts)]
     groups = 0

@@ -233,7 +233,7 @@ def shape_by_drawing(regions: list[np.ndarray], fronts: list[np.ndarray], drawin
     near = ndimage.binary_dilation(marked, structure=np.ones((3, 3), bool), iterations=NEAR_MARK_PX)
     colour = drawing.astype(np.float32) / 255.0 if drawing.dtype == np.uint8 else drawing  # strokes read 0-1
     owner = drawn_bodies(colour, fg, pose, skeleton, parts)
-    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * stroke_reach(fg.shape) + 1,) * 2)
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * stroke_reach(fg) + 1,) * 2)
     shaped = []
     for region, front in zip(regions, fronts):
         held = cv2.dilate(np.isin(owner, front).astype(np.uint8), disc) > 0

@@ -138,10 +138,10 @@ def contrast_map(drawing: np.ndarray) -> np.ndarray:
     return out
 
 
-def outline_contrast(drawing: np.ndarray) -> np.ndarray:
-    """(H, W) float32 the contrast_map's largest value within the reach of a stroke (CONTRAST_PX, growing with
-    the drawing) of each pixel: what read_front reads along an outline."""
-    reach = int(round(CONTRAST_PX * scale_of(drawing.shape[:2])))
+def outline_contrast(drawing: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """(H, W) float32 the contrast_map's largest value within the reach of a stroke (CONTRAST_PX times the
+    character's scale, scale_of) of each pixel: what read_front reads along an outline."""
+    reach = int(round(CONTRAST_PX * scale))
     return cv2.dilate(contrast_map(drawing), cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1,) * 2))
 
 
@@ -152,7 +152,7 @@ def read_front(region: np.ndarray, a: int, b: int, contrast: np.ndarray, foregro
     contrast: outline_contrast of the drawing; foreground: (H, W) bool;
     radii: (B,) body radii, pixels."""
     reading = FrontReading(-1, {a: 0.0, b: 0.0}, {a: 0, b: 0})
-    min_side = MIN_SIDE_PX * scale_of(region.shape)
+    min_side = MIN_SIDE_PX * scale_of(foreground)
     four = ndimage.generate_binary_structure(2, 1)
     rim = region & ~ndimage.binary_erosion(region, four)
     rim &= ~ndimage.binary_dilation(~foreground, iterations=SILHOUETTE_PX)  # the character's outline: always drawn
@@ -216,7 +216,7 @@ def check_fronts(regions: list[np.ndarray], fronts: list[np.ndarray], drawing: n
         return list(fronts), []
     radii = bone_radii(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
-    contrast = outline_contrast(drawing)
+    contrast = outline_contrast(drawing, scale_of(foreground))
     out, warnings, cache = [], [], {}
     for region, front in zip(regions, fronts):
         parts = pair_components(region, pose, skeleton, radii)
@@ -248,7 +248,7 @@ def pair_regions(mask: np.ndarray, drawing: np.ndarray | None, foreground: np.nd
     bool; pose: (J, 3) pixels and depth (larger = farther); radii: (B,) body radii, pixels; source names the
     keyframe in warnings."""
     depth = bone_depths(pose, skeleton)
-    contrast = None if drawing is None else outline_contrast(drawing)
+    contrast = None if drawing is None else outline_contrast(drawing, scale_of(foreground))
     regions, fronts, keys, warnings = [], [], [], []
     cache: dict = {}
     for a, b, region in pair_components(mask, pose, skeleton, radii):

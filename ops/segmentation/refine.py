@@ -22,7 +22,7 @@ from ops.geometry.deform import Deformer
 from ops.geometry.mesh import boundary_loops, triangulate_pslg
 from ops.geometry.polygon import densify, polygon_area, project_to_polyline, rasterize
 from ops.geometry.snap import snap_into
-from ops.segmentation.contacts import thin_overlaps
+from ops.segmentation.contacts import scale_of, thin_overlaps
 from ops.segmentation.domain import mesh_domain
 from ops.segmentation.junctions import assign_junctions
 from ops.segmentation.slits import contact_slits, junction_slits, parting_slits
@@ -252,7 +252,7 @@ def refine_masks(masks: Masks, t_junctions: np.ndarray, pose: np.ndarray, skelet
     groups = nest_group_list(masks.nest_groups, len(masks.occlusion))
     groups += [-1] * (len(regions) - len(groups))  # a region started at a click stacks with none
     regions, front_bones, per_region, groups = _split_pieces(regions, front_bones, per_region, groups, warnings)
-    thin = thin_overlaps(regions, masks.contacts)
+    thin = thin_overlaps(regions, masks.contacts, scale_of(fg))
     occ, fronts, bounds, juncs, nests = [], [], [], [], []
     for r, (region, front, J, group) in enumerate(zip(regions, front_bones, per_region, groups)):
         if thin[r] and not len(J):

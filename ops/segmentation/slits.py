@@ -18,7 +18,7 @@ from skimage.morphology import skeletonize
 
 from ops.geometry.polygon import densify, project_to_polyline
 from ops.segmentation.bones import bone_radii, segment_distance
-from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of
+from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of, scale_of_box
 from ops.types import Skeleton
 
 AVOID_PX = 3  # a slit keeps this far from the occlusion regions' boundaries (mesh constraints)
@@ -46,14 +46,23 @@ def slit_of(piece: np.ndarray, avoid: np.ndarray, domain: list[np.ndarray],
     that touches the body beyond the part crossing it) is cut short by AVOID_PX there; its end is carried on to
     a T-junction within JOIN_PX, where the region's own cut goes on, so no bridge of mesh is left between the
     two cuts to glue the bodies together (lamp: the arm resting on the base beside the shade over it)."""
-    return _slit_along(piece, *_clearance(avoid), domain, junctions)
+    return _slit_along(piece, *_clearance(avoid), domain, junctions, _scale_of_domain(domain))
 
 
 def contact_slits(contacts: list[np.ndarray], avoid: np.ndarray, domain: list[np.ndarray],
                   junctions: np.ndarray | None = None) -> list[np.ndarray]:
     """slit_of for each contact piece ((H, W) bool) that keeps one, the regions' clearance computed once."""
     clear, band = _clearance(avoid)
-    return [s for s in (_slit_along(c, clear, band, domain, junctions) for c in contacts) if s is not None]
+    scale = _scale_of_domain(domain)
+    return [s for s in (_slit_along(c, clear, band, domain, junctions, scale) for c in contacts) if s is not None]
+
+
+def _scale_of_domain(domain: list[np.ndarray]) -> float:
+    """The character's scale (scale_of) from its domain's closed polylines (the box of their points)."""
+    if not domain:
+        return 1.0
+    pts = np.vstack(domain)
+    return scale_of_box(*(pts.max(axis=0) - pts.min(axis=0) + 1)[::-1])
 
 
 def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.ndarray], coverage: np.ndarray,
@@ -77,7 +86,7 @@ def parting_slits(slits: list[np.ndarray], regions: np.ndarray, domain: list[np.
     one loop: either would close a loop around a piece of the mesh (of two such ends, the one the other key
     parts less stays). Nor an end at a region (within AVOID_PX + 2 px): the region's T-junction or cut opens
     it. The pose (J, 3) is the keyframe's."""
-    scale = scale_of(coverage.shape)
+    scale = scale_of(coverage)
     loops = [[_nearest_on(s[e], domain) for e in (0, -1)] for s in slits]  # per slit, per end: (dist, foot, loop)
     if not any(0.5 < d <= BRIDGE_PX * scale for ends in loops for d, _, _ in ends):
         return list(slits)  # every end on a loop or far inside: nothing to carry on (most keys)
@@ -165,7 +174,7 @@ def _clearance(avoid: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]
 
 
 def _slit_along(piece: np.ndarray, clear: np.ndarray | None, band: np.ndarray | None, domain: list[np.ndarray],
-                junctions: np.ndarray | None) -> np.ndarray | None:
+                junctions: np.ndarray | None, scale: float) -> np.ndarray | None:
     """slit_of, given the regions' clearance and the band around it (_clearance)."""
     cut_off = None  # where the regions cut this contact short
     if clear is not None:
@@ -183,7 +192,7 @@ def _slit_along(piece: np.ndarray, clear: np.ndarray | None, band: np.ndarray | 
         J = np.asarray(junctions, np.float64)
         gaps = [np.linalg.norm(J - np.asarray(end, np.float64), axis=1) for end in (path[0], path[-1])]
         for e, end in enumerate((path[0], path[-1])):
-            if cut_off[int(end[1]), int(end[0])] and gaps[e].min() <= JOIN_PX * scale_of(piece.shape):
+            if cut_off[int(end[1]), int(end[0])] and gaps[e].min() <= JOIN_PX * scale:
                 joins[e] = int(np.argmin(gaps[e]))
         if joins[0] is not None and joins[0] == joins[1]:  # one junction: the nearer end goes to it
             joins[int(gaps[0].min() <= gaps[1].min())] = None
@@ -232,7 +241,7 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
     ends_xy = pose[skeleton.bones, :2].astype(np.float64)  # (B, 2, 2)
     others = [other_pose] if np.ndim(other_pose) == 2 else list(other_pose)  # the neighbouring keys' poses
     other_ends = [np.asarray(o)[skeleton.bones, :2].astype(np.float64) for o in others]
-    scale = scale_of(coverage.shape)
+    scale = scale_of(coverage)
     reach = int(np.ceil(REACH_OUTLINE_PX * 1.5)) + 2
     out = []
     for B, J, front in zip(boundaries, junctions, front_bones):

@@ -104,6 +104,60 @@ def test_animated_drawings_character_without_a_clip_is_its_drawing(tmp_path, cha
     assert len(data["poses"]) == 1 and np.allclose(np.array(data["poses"][0]["joints"])[:, :2], locs)
 
 
+def test_a_clip_that_leaves_the_texture_grows_the_canvas(tmp_path, character):
+    """AnimatedDrawings' textures are cropped close to the character; a clip that carries it off them grows the
+    canvas on those sides: the drawing's pixels and its mask move there unchanged, the poses with them, and the
+    drawing's outline carried with its bones stays inside at every frame. --keep-canvas keeps the texture."""
+    cfg, locs = character
+    tex = cv2.imread(str(cfg.parent / "texture.png"), cv2.IMREAD_UNCHANGED)
+    mask = cv2.imread(str(cfg.parent / "mask.png"), cv2.IMREAD_GRAYSCALE)
+    rows, cols = np.flatnonzero(mask.any(1)), np.flatnonzero(mask.any(0))
+    y0, x0 = rows[0], cols[0]  # crop to the character, as AnimatedDrawings' examples are
+    tight = tmp_path / "tight"
+    tight.mkdir()
+    cv2.imwrite(str(tight / "texture.png"), tex[y0:rows[-1] + 1, x0:cols[-1] + 1])
+    cv2.imwrite(str(tight / "mask.png"), mask[y0:rows[-1] + 1, x0:cols[-1] + 1])
+    import yaml
+
+    data = yaml.safe_load(cfg.read_text())
+    data["height"], data["width"] = int(rows[-1] + 1 - y0), int(cols[-1] + 1 - x0)
+    for r in data["skeleton"]:
+        r["loc"] = [r["loc"][0] - int(x0), r["loc"][1] - int(y0)]
+    (tight / "char_cfg.yaml").write_text(yaml.safe_dump(data))
+    bvh, retarget = tmp_path / "hop.bvh", tmp_path / "retarget.yaml"
+    retarget.write_text(RETARGET)
+    bvh.write_text(bvh_text(swing(10), root_xyz=[(-1.5 * f, 18.0 + 0.5 * f, 0.0) for f in range(10)]))
+
+    lines = []
+    starting.new_from_animated_drawings(tmp_path / "grown", tight / "char_cfg.yaml", bvh, retarget, say=lines.append)
+    starting.new_from_animated_drawings(tmp_path / "kept", tight / "char_cfg.yaml", bvh, retarget, say=QUIET,
+                                        keep_canvas=True)
+    grown = json.loads((tmp_path / "grown" / "shot.json").read_text())
+    kept = json.loads((tmp_path / "kept" / "shot.json").read_text())
+    check_v2(grown, tmp_path / "grown")
+    key = cv2.imread(str(tmp_path / "grown" / "key0.png"), cv2.IMREAD_UNCHANGED)
+    fg = cv2.imread(str(tmp_path / "grown" / "key0_fg.png"), cv2.IMREAD_GRAYSCALE)
+    h, w = data["height"], data["width"]
+    assert key.shape[0] > h or key.shape[1] > w
+    assert any(x.startswith("canvas: ") for x in lines)
+    shift = np.subtract(grown["poses"][0]["joints"], kept["poses"][0]["joints"])[:, :2]
+    left, top = (int(round(v)) for v in shift[0])
+    assert left > 0 and np.allclose(shift, [left, top], atol=1e-6)  # one shift for every joint of every frame
+    np.testing.assert_allclose(np.subtract(grown["poses"][-1]["joints"], kept["poses"][-1]["joints"])[:, :2], shift)
+    np.testing.assert_array_equal(key[top:top + h, left:left + w], cv2.imread(str(tight / "texture.png"),
+                                                                              cv2.IMREAD_UNCHANGED))
+    assert (fg[top:top + h, left:left + w] > 127).sum() == (mask > 127).sum() and (fg > 127).sum() == (mask > 127).sum()
+    from ops.motion.canvas import carried_with_bones, outline_points
+    from ops.types import Skeleton
+
+    sk = Skeleton(HUMANOID.joints, np.asarray(HUMANOID.parents))
+    poses = np.array([p["joints"] for p in grown["poses"]], float)
+    reach = carried_with_bones(outline_points(fg > 127), poses[0], poses, sk)
+    assert reach.min() >= 0 and reach[..., 0].max() <= key.shape[1] - 1 and reach[..., 1].max() <= key.shape[0] - 1
+    kept_key = cv2.imread(str(tmp_path / "kept" / "key0.png"), cv2.IMREAD_UNCHANGED)
+    assert kept_key.shape[:2] == (h, w)
+
+
 DOLL_RETARGET = RETARGET
 for ad, doll in [("right_shoulder", "r_shoulder"), ("left_shoulder", "l_shoulder"), ("right_elbow", "r_elbow"),
                  ("left_elbow", "l_elbow"), ("right_hand", "r_hand"), ("left_hand", "l_hand"), ("right_hip", "r_hip"),

@@ -326,3 +326,23 @@ def test_the_lamps_arm_resting_on_the_base_is_cut_through_to_the_shades_junction
     ends = np.array([s[e] for s in refined.slits for e in (0, -1)])
     for p in junctions:
         assert np.sum(np.linalg.norm(ends - p, axis=1) < 1e-6) == 1, (p, ends)
+
+
+def test_a_drawing_on_a_larger_page_has_the_same_contacts():
+    """Lengths grow with the character, not with its canvas: arm_cross's key1 drawn 1.6 times larger (scale
+    1.25) reads the same contacts alone and padded with 120 px of its paper on every side."""
+    from ops.shotio.load import load_shot
+
+    shot = load_shot(SAMPLES / "arm_cross")
+    drawing = cv2.imread(shot.keyframes[1])[..., ::-1].astype(np.float32) / 255.0
+    drawing = cv2.resize(drawing, None, fx=1.6, fy=1.6, interpolation=cv2.INTER_LINEAR)
+    pose = shot.key_pose(1) * [1.6, 1.6, 1.0]
+    masks = build_masks(drawing, pose, shot.skeleton)
+    body = masks.foreground & (masks.coverage >= 0.5)
+    assert contacts_mod.scale_of(body) > 1.0
+    alone = stroke_contacts(drawing, body, pose, shot.skeleton)
+    pad = 120
+    page = np.pad(drawing, ((pad, pad), (pad, pad), (0, 0)), mode="edge")  # the corners are paper
+    padded = stroke_contacts(page, np.pad(body, pad), pose + [pad, pad, 0], shot.skeleton)
+    assert alone and len(padded) == len(alone)
+    np.testing.assert_array_equal(np.any(padded, axis=0)[pad:-pad, pad:-pad], np.any(alone, axis=0))
