@@ -295,6 +295,42 @@ def _write_motion(shot_dir: Path, file: Path, v2: dict, key_frames: np.ndarray, 
     return file
 
 
+def _off_canvas(shot_dir: Path, v2: dict, sk: Skeleton, key_frames: np.ndarray, keys: np.ndarray,
+                poses: np.ndarray) -> list[str]:
+    """A warning where the motion carries a key's drawing off its canvas: each frame's character is the nearest
+    key's outline (its manual foreground, else its silhouette) carried with the bones (ops.motion.canvas)."""
+    names = v2.get("keyframes") or []
+    fgs = (v2.get("masks") or {}).get("foreground") or [None] * len(names)
+    if len(key_frames) > 1:  # the frames after the last key are left out (_write_motion)
+        poses = poses[: int(key_frames[-1]) + 1]
+    worst, frames, size = 0.0, [], None
+    for k, name in enumerate(names):
+        img = read_image(shot_dir / name)
+        size = img.shape[:2]
+        if k < len(fgs) and fgs[k]:
+            m = read_image(shot_dir / fgs[k], "masks.foreground")
+            mask = (m[..., 0] if m.ndim == 3 else m) > 0.5
+        else:
+            try:
+                mask = find_silhouette(img).mask
+            except ValueError:
+                continue
+        mine = [f for f in range(len(poses)) if int(np.argmin(np.abs(key_frames - f))) == k]
+        if not mine:
+            continue
+        reach = carried_with_bones(outline_points(mask), keys[k], poses[mine], sk)
+        h, w = size
+        out = np.maximum.reduce([-reach[..., 0], -reach[..., 1], reach[..., 0] - (w - 1), reach[..., 1] - (h - 1)])
+        over = out.max(axis=1)  # per frame, px beyond the canvas
+        frames += [f for f, o in zip(mine, over) if o > 0.5]
+        worst = max(worst, float(over.max(initial=0.0)))
+    if not frames:
+        return []
+    return [f"the motion takes the character up to {worst:.0f} px off the canvas at {len(frames)} frame(s) "
+            f"({frames[0]}-{frames[-1]}), where the frames are cut; fix: pad the keyframes and their masks and move "
+            "the poses by as much (inbetween new --animated-drawings --bvh does this itself)"]
+
+
 def motion_from_bvh(shot_dir: str | Path, bvh: str | Path, retarget_cfg: str | Path | None,
                     bvh_frames: str | None = None, say: Say = print) -> Path:
     """`inbetween motion SHOT_DIR --bvh CLIP.bvh --retarget RETARGET.yaml`: the clip fitted to the key poses."""
@@ -307,6 +343,7 @@ def motion_from_bvh(shot_dir: str | Path, bvh: str | Path, retarget_cfg: str | P
         raise ShotError(bvh, "--bvh-frames", f"selects {len(idx)} frames, the shot's last key is at frame {kf.max()}",
                         f"give at least {kf.max() + 1} frames")
     say(f"motion: {Path(bvh).name} frames {idx[0]}..{idx[-1]} ({len(idx)}), retargeted by {Path(retarget_cfg).name}")
+    warnings += _off_canvas(file.parent, v2, sk, kf, keys, poses)
     return _write_motion(shot_dir, file, v2, kf, poses, str(bvh), warnings + clip.warnings, say)
 
 
@@ -325,5 +362,6 @@ def motion_from_video(shot_dir: str | Path, video: str | Path, points: str | Pat
     poses = fit_clip(clip, sk.parents, kf, keys)
     say(f"motion: {len(pts)} points tracked through {len(frames)} frames of {Path(video).name}"
         + (f" ({fps:g} fps)" if fps else ""))
+    warnings += _off_canvas(file.parent, v2, sk, kf, keys, poses)
     return _write_motion(shot_dir, file, v2, kf, poses, str(video), warnings + clip.warnings, say)
 

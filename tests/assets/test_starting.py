@@ -156,6 +156,14 @@ def test_a_clip_that_leaves_the_texture_grows_the_canvas(tmp_path, character):
     assert reach.min() >= 0 and reach[..., 0].max() <= key.shape[1] - 1 and reach[..., 1].max() <= key.shape[0] - 1
     kept_key = cv2.imread(str(tmp_path / "kept" / "key0.png"), cv2.IMREAD_UNCHANGED)
     assert kept_key.shape[:2] == (h, w)
+    # a shot that exists keeps its canvas: `motion` says where the clip takes the character off it
+    starting.new_from_animated_drawings(tmp_path / "still", tight / "char_cfg.yaml", say=QUIET)
+    said = []
+    starting.motion_from_bvh(tmp_path / "still", bvh, retarget, say=said.append)
+    assert any("off the canvas" in x and "fix:" in x for x in said), said
+    calm = []
+    starting.motion_from_bvh(tmp_path / "grown", bvh, retarget, say=calm.append)  # the grown canvas holds it
+    assert not any("off the canvas" in x for x in calm), calm
 
 
 DOLL_RETARGET = RETARGET
