@@ -222,7 +222,8 @@ def new_from_animated_drawings(shot_dir: str | Path, char_cfg: str | Path, bvh: 
 
     pad = (0, 0, 0, 0)
     if bvh is not None and not keep_canvas:
-        pad = padding_for(carried_with_bones(outline_points(mask), key, poses, sk), ch.size)
+        outline = outline_points(mask)
+        pad = padding_for(carried_with_bones(outline, key, poses, sk), ch.size, rest=outline)
         poses = poses.copy()
         poses[:, :, 0] += pad[0]
         poses[:, :, 1] += pad[1]

@@ -42,16 +42,26 @@ def carried_with_bones(points: np.ndarray, pose: np.ndarray, poses: np.ndarray, 
     return a2 + t[None, :, None] * d2 + rotated
 
 
-def padding_for(points: np.ndarray, size: tuple[int, int], margin: float = MARGIN_PX) -> tuple[int, int, int, int]:
+def padding_for(points: np.ndarray, size: tuple[int, int], margin: float = MARGIN_PX,
+                rest: np.ndarray | None = None) -> tuple[int, int, int, int]:
     """(left, top, right, bottom) pixels to add to a canvas of (H, W) so that every (..., 2) point lies at
-    least `margin` px inside it; zeros where it already does."""
+    least `margin` px inside it; zeros where it already does.
+
+    rest: the (n, 2) points where the drawing itself has them. A side the drawing already comes nearer than
+    `margin` to keeps only the room it has there: a texture cropped at the feet is not padded below them for
+    a motion that does not move them lower."""
     pts = np.asarray(points, np.float64).reshape(-1, 2)
     if not len(pts):
         return 0, 0, 0, 0
     h, w = size
-    lo, hi = pts.min(axis=0) - margin, pts.max(axis=0) + margin
-    return (int(np.ceil(max(0.0, -lo[0]))), int(np.ceil(max(0.0, -lo[1]))),
-            int(np.ceil(max(0.0, hi[0] - (w - 1)))), int(np.ceil(max(0.0, hi[1] - (h - 1)))))
+    room = np.full(4, float(margin))  # left, top, right, bottom
+    if rest is not None and len(rest):
+        own = np.asarray(rest, np.float64).reshape(-1, 2)
+        lo, hi = own.min(axis=0), own.max(axis=0)
+        room = np.minimum(room, np.maximum([lo[0], lo[1], w - 1 - hi[0], h - 1 - hi[1]], 0.0))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    need = [room[0] - lo[0], room[1] - lo[1], hi[0] + room[2] - (w - 1), hi[1] + room[3] - (h - 1)]
+    return tuple(int(np.ceil(max(0.0, v - 1e-9))) for v in need)
 
 
 def pad_drawing(image: np.ndarray, pad: tuple[int, int, int, int], outside: np.ndarray) -> np.ndarray:

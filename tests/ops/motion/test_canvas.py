@@ -46,6 +46,11 @@ def test_padding_reaches_every_point_with_the_margin_and_nothing_more():
     pad = padding_for(np.array([[-5.0, 20.0], [90.0, 103.5]]), size)
     assert pad == (5 + MARGIN_PX, 0, 90 + MARGIN_PX - 79, int(np.ceil(103.5 + MARGIN_PX - 99)))
     assert padding_for(np.zeros((0, 2)), size) == (0, 0, 0, 0)
+    # a drawing cropped 2 px above the bottom edge: a motion that keeps its feet there grows nothing below
+    rest = np.array([[20.0, 30.0], [60.0, 97.0]])
+    assert padding_for(rest, size, rest=rest) == (0, 0, 0, 0)
+    assert padding_for(rest + [0.0, 5.0], size, rest=rest) == (0, 0, 0, 5)  # moved 5 px lower: 5 px, no more
+    assert padding_for(rest + [-25.0, 0.0], size, rest=rest) == (5 + MARGIN_PX, 0, 0, 0)  # the left keeps its margin
 
 
 def test_a_padded_drawing_keeps_its_pixels_and_gets_the_papers_colour_around():
