@@ -270,8 +270,17 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
         return _cutout(rgba, touch)
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
+    fg = _segment(rgb, page, pose, skeleton, touch, close_radius(shape))
+    # gaps are sealed by the character's size, not its page's: a drawing on a wide margin (a scan, a canvas grown
+    # for the motion) would otherwise glue a limb to the body across the gap between them
+    own = close_radius(_box(fg.mask))
+    return _segment(rgb, page, pose, skeleton, touch, own) if own < close_radius(shape) else fg
 
-    r = close_radius(shape)
+
+def _segment(rgb: np.ndarray, page: Page, pose: np.ndarray, skeleton: Skeleton, touch: np.ndarray, r: int) -> Foreground:
+    """segment_foreground of an opaque (H, W, 3) drawing whose page (read_page) is read, its strokes' gaps
+    sealed by a disc of radius r px; touch: (H, W) bool the bones' thin capsules."""
+    shape = rgb.shape[:2]
     sealed = closing(page.smooth_delta > page.ink_delta, r)
     points, owner = bone_samples(pose, skeleton)
     filled = fill_insides(sealed, points)

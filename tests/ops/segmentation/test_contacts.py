@@ -261,7 +261,7 @@ def test_a_thick_crayon_outline_is_one_stroke_on_a_large_drawing(monkeypatch):
     drawing += rng.normal(0, 0.01, drawing.shape).astype(np.float32)
     drawing[body & ~inner] = (0.25, 0.2, 0.6)  # a purple crayon outline
     assert stroke_contacts(drawing, body, pose, skeleton) == []
-    monkeypatch.setattr(contacts_mod, "scale_of", lambda shape: 1.0)
+    monkeypatch.setattr(contacts_mod, "scale_of", lambda character: 1.0)
     assert stroke_contacts(drawing, body, pose, skeleton)
 
 

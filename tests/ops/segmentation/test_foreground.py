@@ -453,3 +453,19 @@ def test_paper_glued_between_two_bodies_has_no_opaque_specks():
     gap = solid & ~bars
     assert coverage[gap].max() < 0.5
     assert (coverage[bars] == 1).all()
+
+
+def test_a_drawing_on_a_wide_page_is_read_as_on_its_own():
+    """Gaps are sealed by the character's size, not its page's: legs_cross's key0 on a page 300 px wider on every
+    side (856 px: a page-sized seal would be 7 px and glue the legs together) gets the same foreground."""
+    shot = load_shot(SAMPLES / "legs_cross")
+    drawing = read_image(shot.keyframes[0])
+    pose = shot.key_pose(0)
+    alone = segment_foreground(drawing, pose, shot.skeleton)
+    pad = 300
+    page = np.pad(drawing, ((pad, pad), (pad, pad), (0, 0)), mode="edge")  # its corners are paper
+    wide = segment_foreground(page, pose + [pad, pad, 0], shot.skeleton)
+    assert not wide.mask[:pad].any() and not wide.mask[-pad:].any()
+    inner = wide.mask[pad:-pad, pad:-pad]
+    assert (inner != alone.mask).sum() <= 0.002 * alone.mask.sum()  # the paper read on the wider page moves a few rim pixels
+    np.testing.assert_array_equal(wide.holes[pad:-pad, pad:-pad], alone.holes)
