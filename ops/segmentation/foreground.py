@@ -72,7 +72,7 @@ def close_radius(shape: tuple[int, int]) -> int:
     return max(2, int(round(CLOSE_SHARE * max(shape))))
 
 
-def _box(mask: np.ndarray) -> tuple[int, int]:
+def box_of(mask: np.ndarray) -> tuple[int, int]:
     """(height, width) pixels of the box around an (H, W) bool mask's pixels ((H, W) when empty)."""
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
     return (int(rows[-1] - rows[0] + 1), int(cols[-1] - cols[0] + 1)) if len(rows) else mask.shape
@@ -250,7 +250,7 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
         )
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
-    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(_box(mask))) & mask  # the character's size
+    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(box_of(mask))) & mask  # the character's size
     reach = past_margin(mask) & ~holes
     coverage, colour = unmix(
         rgb, page.paper.rgb, mask, reach, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
@@ -273,7 +273,7 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
     fg = _segment(rgb, page, pose, skeleton, touch, close_radius(shape))
     # gaps are sealed by the character's size, not its page's: a drawing on a wide margin (a scan, a canvas grown
     # for the motion) would otherwise glue a limb to the body across the gap between them
-    own = close_radius(_box(fg.mask))
+    own = close_radius(box_of(fg.mask))
     return _segment(rgb, page, pose, skeleton, touch, own) if own < close_radius(shape) else fg
 
 

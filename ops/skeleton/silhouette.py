@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.segmentation.foreground import close_radius, closing, is_cutout, read_page
+from ops.segmentation.foreground import box_of, close_radius, closing, is_cutout, read_page
 from ops.shotio.image_io import to_rgba
 
 PIECE_SHARE = 0.04  # a component of at least this share of the largest one's area may be part of the character
@@ -48,11 +48,22 @@ def find_silhouette(drawing: np.ndarray) -> Silhouette:
     h, w = rgba.shape[:2]
     if is_cutout(rgba):
         ink = rgba[..., 3] > 0.5
-        sealed = ink
+        mask, warnings = _main_shape(ink)
     else:
         page = read_page(np.ascontiguousarray(rgba[..., :3]))
         ink = page.smooth_delta > page.ink_delta
-        sealed = closing(ink, close_radius((h, w)))
+        r = close_radius((h, w))
+        mask, warnings = _main_shape(closing(ink, r))
+        own = close_radius(box_of(mask))  # gaps sealed by the character's size, not its page's
+        if own < r:
+            mask, warnings = _main_shape(closing(ink, own))
+    return Silhouette(mask=mask, ink=ink & mask, warnings=warnings)
+
+
+def _main_shape(sealed: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """(H, W) bool the character in an (H, W) bool sealed ink mask (its largest filled shape, with the pieces
+    near it), and warnings; ValueError when there is none."""
+    h, w = sealed.shape
     filled = ndimage.binary_fill_holes(sealed)
     labels, n = ndimage.label(filled, structure=np.ones((3, 3), bool))
     if n == 0:
@@ -76,5 +87,4 @@ def find_silhouette(drawing: np.ndarray) -> Silhouette:
     near = cv2.distanceTransform((~body).astype(np.uint8), cv2.DIST_L2, 5) <= reach
     keep = [main] + [int(i) for i in range(1, n + 1)
                      if i != main and sizes[i] >= PIECE_SHARE * sizes[main] and near[labels == i].any()]
-    mask = np.isin(labels, keep)
-    return Silhouette(mask=mask, ink=ink & mask, warnings=warnings)
+    return np.isin(labels, keep), warnings
