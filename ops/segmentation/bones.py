@@ -14,6 +14,20 @@ def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
     return project_to_segment(points, a, b)[1]
 
 
+def joined_bones(pose: np.ndarray, skeleton: Skeleton, tol: float = 1.0) -> np.ndarray:
+    """(B, B) bool: bones that share a joint, or meet at the two ends of a bone shorter than `tol` px at the
+    (J, >=2) pose: AnimatedDrawings' root - hip has no length, so the pelvis (from root) and the spine (from hip)
+    meet there as at a joint, not as one part over another. Only through one such bone: both thighs of a side
+    view hang from hips that project onto the root, and they stay two parts that can cross."""
+    adjacent = skeleton.adjacent_bones()
+    ends = np.asarray(pose, np.float64)[skeleton.bones][:, :, :2]  # (B, 2, 2)
+    short = np.flatnonzero(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1) < tol)
+    joined = adjacent.copy()
+    for z in short:
+        joined |= adjacent[:, z][:, None] & adjacent[z][None, :]
+    return joined
+
+
 def _bone_ends(pose: np.ndarray, skeleton: Skeleton) -> np.ndarray:
     """(B, 2, 2) float64 bone segment end points (parent, child) x (x, y), pixels."""
     return pose[:, :2].astype(np.float64)[skeleton.bones]

@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
-from ops.segmentation.bones import bone_depths, thick_regions
+from ops.segmentation.bones import bone_depths, joined_bones, thick_regions
 from ops.types import Skeleton
 from ops.warning_subject import about, inside_point
 
@@ -40,15 +40,16 @@ def _bone_name(skeleton: Skeleton, b: int) -> str:
     return f"{skeleton.joints[p]}-{skeleton.joints[c]}"
 
 
-def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton, min_px: float = 0.0
-                   ) -> tuple[list, list[str]]:
+def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton, min_px: float = 0.0,
+                   adjacent: np.ndarray | None = None) -> tuple[list, list[str]]:
     """Overlaps of non-adjacent bones' (B, H, W) thick regions: list of (front, back, (H, W) bool), warnings.
+    adjacent: (B, B) bool which bones meet at a joint (default: share one in the hierarchy).
 
     An overlap of two bones at equal depth is a warning only from min_px pixels on: a smaller one would have been
     dropped as noise had the bones had an order (the few pixels where a hip bone and the spine, joined through a
     bone of no length, meet round their shared joint)."""
     out, warnings = [], []
-    adjacent = skeleton.adjacent_bones()
+    adjacent = skeleton.adjacent_bones() if adjacent is None else adjacent
     nb = thick.shape[0]
     for i in range(nb):
         for j in range(i + 1, nb):
@@ -107,9 +108,9 @@ def predict_occlusion(
     """Predicted occlusion regions ((H, W) bool each, back to front), their (b,) int64 front bones, warnings."""
     thick = thick_regions(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
-    adjacent = skeleton.adjacent_bones()
+    adjacent = joined_bones(pose, skeleton)  # a bone of no length joins its neighbours as a joint does
     min_area = MIN_REGION_FRACTION * max(int(foreground.sum()), 1)
-    pairs, warnings = _pair_overlaps(thick, depth, skeleton, min_area)
+    pairs, warnings = _pair_overlaps(thick, depth, skeleton, min_area, adjacent)
     union = np.zeros_like(foreground, dtype=bool)
     for _, _, overlap in pairs:
         union |= overlap

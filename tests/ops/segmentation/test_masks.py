@@ -7,7 +7,7 @@ import pytest
 
 from ops.errors import ShotError
 from ops.geometry.snap import snap_into
-from ops.segmentation.bones import bone_radii, bone_regions, segment_distance, thick_regions
+from ops.segmentation.bones import bone_radii, bone_regions, joined_bones, segment_distance, thick_regions
 from ops.segmentation.foreground import segment_foreground
 from ops.segmentation.masks import build_masks
 from ops.segmentation.occlusion import predict_occlusion
@@ -176,6 +176,32 @@ def test_adjacent_bones_produce_no_region():
     pose = np.array([[30, 40, 0], [80, 60, -1], [40, 95, -2.0]])
     masks = build_masks(drawing, pose, skeleton, occlusion="skeleton")  # the rule; the drawing's joint overlaps count
     assert masks.occlusion == [] and masks.front_bones == []
+
+
+def test_bones_joined_through_a_bone_of_no_length_meet_as_at_a_joint():
+    """AnimatedDrawings' root and hip share one location: the thigh (root - knee) and the spine (hip - neck) meet
+    there as at a joint, at any depths: no region, no warning. With the hip 10 px off the root they are two
+    parts, and their overlap is a region."""
+    shape = (160, 160)
+    spine = capsule(shape, (80, 40), (80, 90), 14)
+    thigh = capsule(shape, (80, 90), (60, 140), 10)
+    drawing = ink_drawing(outline(spine | thigh))
+    skeleton = Skeleton(("root", "hip", "neck", "knee"), np.array([-1, 0, 1, 0]))
+    for z in ((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, -1.0, 1.0)):
+        pose = np.array([[80, 90], [80, 90], [80, 40], [60, 140]], float)
+        pose = np.c_[pose, z]
+        assert joined_bones(pose, skeleton)[1, 2]  # hip - neck and root - knee
+        regions, _, warnings = predict_occlusion(drawn(drawing, pose, skeleton), pose, skeleton)
+        assert regions == [] and not any("equal depth" in w for w in warnings), warnings
+    apart = np.array([[80, 100, 0.0], [80, 90, 0.0], [80, 40, -1.0], [60, 140, 1.0]])
+    assert not joined_bones(apart, skeleton)[1, 2]
+    # a side view: both hips project onto the root, and the thighs hanging from them stay two parts
+    side = Skeleton(("root", "hip", "neck", "r_hip", "r_knee", "l_hip", "l_knee"), np.array([-1, 0, 1, 0, 3, 0, 5]))
+    at = np.array([[80, 90], [80, 90], [80, 40], [80, 90], [60, 140], [80, 90], [100, 140]], float)
+    joined = joined_bones(np.c_[at, np.zeros(7)], side)
+    bone = {tuple(side.bones[i]): i for i in range(len(side.bones))}
+    assert not joined[bone[(3, 4)], bone[(5, 6)]]  # right thigh, left thigh
+    assert joined[bone[(1, 2)], bone[(0, 3)]]  # the spine and the pelvis' right half, through the root - hip bone
 
 
 def test_equal_depths_predict_nothing_but_warn():
