@@ -41,15 +41,18 @@ def _bone_name(skeleton: Skeleton, b: int) -> str:
 
 
 def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton, min_px: float = 0.0,
-                   adjacent: np.ndarray | None = None) -> tuple[list, list[str]]:
+                   joined: np.ndarray | None = None) -> tuple[list, list[str]]:
     """Overlaps of non-adjacent bones' (B, H, W) thick regions: list of (front, back, (H, W) bool), warnings.
-    adjacent: (B, B) bool which bones meet at a joint (default: share one in the hierarchy).
+    joined: (B, B) bool bones that meet at a joint or through a bone of no length (bones.joined_bones): at equal
+    depth their overlap is where they meet, not worth a warning (AnimatedDrawings' pelvis and spine, on every
+    key); at different depths it stays a region (a side view's near hip over the body).
 
     An overlap of two bones at equal depth is a warning only from min_px pixels on: a smaller one would have been
     dropped as noise had the bones had an order (the few pixels where a hip bone and the spine, joined through a
     bone of no length, meet round their shared joint)."""
     out, warnings = [], []
-    adjacent = skeleton.adjacent_bones() if adjacent is None else adjacent
+    adjacent = skeleton.adjacent_bones()
+    joined = adjacent if joined is None else joined
     nb = thick.shape[0]
     for i in range(nb):
         for j in range(i + 1, nb):
@@ -64,7 +67,7 @@ def _pair_overlaps(thick: np.ndarray, depth: np.ndarray, skeleton: Skeleton, min
             if not overlap.any():
                 continue
             if np.isclose(depth[i], depth[j]):
-                if overlap.sum() < min_px:
+                if overlap.sum() < min_px or joined[i, j]:
                     continue
                 warnings.append(about(
                     "bones", f"bodies overlap on {int(overlap.sum())} px but the bones have equal depth, so no "
@@ -108,9 +111,9 @@ def predict_occlusion(
     """Predicted occlusion regions ((H, W) bool each, back to front), their (b,) int64 front bones, warnings."""
     thick = thick_regions(foreground, pose, skeleton)
     depth = bone_depths(pose, skeleton)
-    adjacent = joined_bones(pose, skeleton)  # a bone of no length joins its neighbours as a joint does
+    adjacent = skeleton.adjacent_bones()
     min_area = MIN_REGION_FRACTION * max(int(foreground.sum()), 1)
-    pairs, warnings = _pair_overlaps(thick, depth, skeleton, min_area, adjacent)
+    pairs, warnings = _pair_overlaps(thick, depth, skeleton, min_area, joined_bones(pose, skeleton))
     union = np.zeros_like(foreground, dtype=bool)
     for _, _, overlap in pairs:
         union |= overlap

@@ -179,20 +179,22 @@ def test_adjacent_bones_produce_no_region():
 
 
 def test_bones_joined_through_a_bone_of_no_length_meet_as_at_a_joint():
-    """AnimatedDrawings' root and hip share one location: the thigh (root - knee) and the spine (hip - neck) meet
-    there as at a joint, at any depths: no region, no warning. With the hip 10 px off the root they are two
-    parts, and their overlap is a region."""
+    """AnimatedDrawings' root and hip share one location: the pelvis (root - knee here) and the spine (hip - neck)
+    meet there as at a joint, so at equal depth their overlap is no warning. At different depths it stays a
+    region (a side view's near hip over the body). With the hip 10 px off the root they are two parts."""
     shape = (160, 160)
     spine = capsule(shape, (80, 40), (80, 90), 14)
     thigh = capsule(shape, (80, 90), (60, 140), 10)
     drawing = ink_drawing(outline(spine | thigh))
     skeleton = Skeleton(("root", "hip", "neck", "knee"), np.array([-1, 0, 1, 0]))
-    for z in ((0.0, 0.0, 0.0, 0.0), (0.0, 0.0, -1.0, 1.0)):
-        pose = np.array([[80, 90], [80, 90], [80, 40], [60, 140]], float)
-        pose = np.c_[pose, z]
-        assert joined_bones(pose, skeleton)[1, 2]  # hip - neck and root - knee
-        regions, _, warnings = predict_occlusion(drawn(drawing, pose, skeleton), pose, skeleton)
-        assert regions == [] and not any("equal depth" in w for w in warnings), warnings
+    at = np.array([[80, 90], [80, 90], [80, 40], [60, 140]], float)
+    flat = np.c_[at, np.zeros(4)]
+    assert joined_bones(flat, skeleton)[1, 2]  # hip - neck and root - knee
+    regions, _, warnings = predict_occlusion(drawn(drawing, flat, skeleton), flat, skeleton)
+    assert regions == [] and not any("equal depth" in w for w in warnings), warnings
+    deep = np.c_[at, [0.0, 0.0, 1.0, -1.0]]
+    regions, fronts, _ = predict_occlusion(drawn(drawing, deep, skeleton), deep, skeleton)
+    assert len(regions) == 1 and 2 in fronts[0]  # the thigh in front of the spine
     apart = np.array([[80, 100, 0.0], [80, 90, 0.0], [80, 40, -1.0], [60, 140, 1.0]])
     assert not joined_bones(apart, skeleton)[1, 2]
     # a side view: both hips project onto the root, and the thighs hanging from them stay two parts
