@@ -134,7 +134,9 @@ def score_samples(out: Path) -> None:
     ious = []
     for shot_dir in sorted(p for p in SAMPLES.iterdir() if (p / "gt_fg").is_dir()):
         shot = load_shot(shot_dir)
-        for k in (0, 1):
+        for k in range(shot.n_keys):  # a one-drawing shot has one key, a sequence more
+            if not (shot_dir / "gt_fg" / f"key{k}.png").is_file():
+                continue
             drawing = read_image(shot.keyframes[k])[..., :3]
             gt = read_image(shot_dir / "gt_fg" / f"key{k}.png")[..., 0]
             pose = shot.key_pose(k)
