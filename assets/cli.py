@@ -395,7 +395,10 @@ def _new(args) -> int:
         starting.new_from_animated_drawings(args.shot_dir, args.animated_drawings, args.bvh, args.retarget,
                                             args.bvh_frames, keep_canvas=args.keep_canvas)
     else:
-        if args.bvh or args.retarget or args.bvh_frames or args.keep_canvas:
+        if args.keep_canvas:
+            raise ShotError(args.shot_dir, "--keep-canvas", "only a clip grows the canvas (--animated-drawings "
+                            "--bvh); drawings keep their own", "leave --keep-canvas out")
+        if args.bvh or args.retarget or args.bvh_frames:
             raise ShotError(args.shot_dir, "--bvh", "a clip drives a shot that exists",
                             "run `inbetween new` first, then `inbetween motion SHOT_DIR --bvh ... --retarget ...`")
         starting.new_from_images(args.shot_dir, args.images, args.skeleton, args.key_frames)

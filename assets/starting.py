@@ -213,9 +213,11 @@ def new_from_animated_drawings(shot_dir: str | Path, char_cfg: str | Path, bvh: 
         warnings += clip.warnings
         decisions = []
     else:
-        if retarget_cfg is not None or bvh_frames is not None or keep_canvas:
-            raise ShotError("--retarget", "--bvh", "--retarget, --bvh-frames and --keep-canvas need --bvh",
-                            "give --bvh CLIP.bvh")
+        if retarget_cfg is not None or bvh_frames is not None:
+            raise ShotError("--retarget", "--bvh", "--retarget and --bvh-frames need --bvh", "give --bvh CLIP.bvh")
+        if keep_canvas:
+            raise ShotError(char_cfg, "--keep-canvas", "keeps the canvas a clip would grow, and no --bvh is given",
+                            "leave --keep-canvas out, or give --bvh CLIP.bvh --retarget RETARGET.yaml")
         order = depth_order(img, mask, ch.pose, sk)
         key[:, 2] = order.z
         poses, idx, decisions = key[None], np.array([0]), order.decisions

@@ -244,4 +244,9 @@ def test_bad_inputs_are_one_line_each(tmp_path, capfd, character):
     pts.write_text(json.dumps({"r_hand": [999, 10]}))
     assert "outside" in one_error_line(capfd, ["motion", str(shot), "--video", str(video), "--points", str(pts)])
     assert "exactly one" in one_error_line(capfd, ["motion", str(shot)])
+    cfg_path = str(character[0])
+    assert "--keep-canvas" in one_error_line(capfd, ["new", str(tmp_path / "k"), "--animated-drawings", cfg_path,
+                                                     "--keep-canvas"])
+    assert "--keep-canvas" in one_error_line(capfd, ["new", str(tmp_path / "k"), str(blank), "--keep-canvas"])
+    assert not (tmp_path / "k").exists()
     assert json.loads((shot / "shot.json").read_text())["format"] == "inbetween-shot/1"  # untouched throughout
