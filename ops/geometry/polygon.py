@@ -59,6 +59,12 @@ def rasterize(P: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     return img > 0
 
 
+def box_size(mask: np.ndarray) -> tuple[int, int]:
+    """(height, width) pixels of the box around the nonzero pixels of an (H, W) array; (0, 0) when there are none."""
+    rows, cols = np.flatnonzero(np.any(mask, axis=1)), np.flatnonzero(np.any(mask, axis=0))
+    return (int(rows[-1] - rows[0] + 1), int(cols[-1] - cols[0] + 1)) if len(rows) else (0, 0)
+
+
 def densify(P: np.ndarray, seg: float, closed: bool = True) -> np.ndarray:
     """(m, 2) polyline with every edge of the (n, 2) polyline P split to length <= seg pixels; closed: P's last
     vertex joins its first (and is not repeated), else P is open and ends at its last vertex."""

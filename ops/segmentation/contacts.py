@@ -27,6 +27,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from skimage.morphology import skeletonize
 
+from ops.geometry.polygon import box_size
 from ops.segmentation.bones import bone_samples, segment_distance, thick_regions
 from ops.types import Skeleton
 
@@ -243,11 +244,7 @@ def scale_of(character: np.ndarray) -> float:
     The character's own size, not its canvas's: the same drawing on a larger page (a canvas grown for the
     motion, a scan with a wide margin) reads its strokes alike. A 256 x 256 keyframe is at most the reference,
     so every such drawing has scale 1."""
-    rows = np.flatnonzero(np.any(character, axis=1))
-    if not len(rows):
-        return 1.0
-    cols = np.flatnonzero(np.any(character, axis=0))
-    return scale_of_box(rows[-1] - rows[0] + 1, cols[-1] - cols[0] + 1)
+    return scale_of_box(*box_size(character))  # no character: (0, 0), scale 1
 
 
 def scale_of_box(height: float, width: float) -> float:

@@ -20,11 +20,13 @@ A drawing with real transparency (an RGBA cut-out) is segmented by its alpha ins
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import cv2
 import numpy as np
 from scipy import ndimage
 
+from ops.geometry.polygon import box_size
 from ops.segmentation.bones import bone_capsules, bone_radii, bone_samples
 from ops.segmentation.coverage import unmix
 from ops.segmentation.holes import find_holes
@@ -70,12 +72,6 @@ class Foreground:
 def close_radius(shape: tuple[int, int]) -> int:
     """Closing radius, pixels, for an image of (H, W): about 0.8 % of its long side, at least 2."""
     return max(2, int(round(CLOSE_SHARE * max(shape))))
-
-
-def box_of(mask: np.ndarray) -> tuple[int, int]:
-    """(height, width) pixels of the box around an (H, W) bool mask's pixels ((H, W) when empty)."""
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    return (int(rows[-1] - rows[0] + 1), int(cols[-1] - cols[0] + 1)) if len(rows) else mask.shape
 
 
 def closing(mask: np.ndarray, radius: int) -> np.ndarray:
@@ -250,7 +246,7 @@ def foreground_from_mask(drawing: np.ndarray, mask: np.ndarray) -> Foreground:
         )
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
-    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(box_of(mask))) & mask  # the character's size
+    sealed = closing(page.smooth_delta > page.ink_delta, close_radius(box_size(mask))) & mask  # the character's size
     reach = past_margin(mask) & ~holes
     coverage, colour = unmix(
         rgb, page.paper.rgb, mask, reach, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
@@ -270,19 +266,47 @@ def segment_foreground(drawing: np.ndarray, pose: np.ndarray, skeleton: Skeleton
         return _cutout(rgba, touch)
     rgb = np.ascontiguousarray(rgba[..., :3])
     page = read_page(rgb)
-    fg = _segment(rgb, page, pose, skeleton, touch, close_radius(shape))
-    # gaps are sealed by the character's size, not its page's: a drawing on a wide margin (a scan, a canvas grown
-    # for the motion) would otherwise glue a limb to the body across the gap between them
-    own = close_radius(box_of(fg.mask))
-    return _segment(rgb, page, pose, skeleton, touch, own) if own < close_radius(shape) else fg
-
-
-def _segment(rgb: np.ndarray, page: Page, pose: np.ndarray, skeleton: Skeleton, touch: np.ndarray, r: int) -> Foreground:
-    """segment_foreground of an opaque (H, W, 3) drawing whose page (read_page) is read, its strokes' gaps
-    sealed by a disc of radius r px; touch: (H, W) bool the bones' thin capsules."""
-    shape = rgb.shape[:2]
-    sealed = closing(page.smooth_delta > page.ink_delta, r)
     points, owner = bone_samples(pose, skeleton)
+    r = close_radius(shape)
+    drawn = _silhouette(page, pose, skeleton, touch, points, r)
+    # gaps are sealed by the character's size, not its page's: a drawing on a wide margin (a scan, a canvas grown
+    # for the motion) would otherwise glue a limb to the body across the gap between them. The box is the final
+    # mask's (past_margin of the silhouette; its holes lie inside it).
+    own = close_radius(box_size(past_margin(drawn.silhouette)))
+    if own < r:
+        r, drawn = own, _silhouette(page, pose, skeleton, touch, points, own)
+    crossed = bone_capsules(shape, pose, skeleton, CROSS_PX)
+    holes = find_holes(drawn.silhouette, drawn.sealed, crossed, drawn.near, points, drawn.reach[owner], min_radius=r,
+                       grazed=touch)
+    solid = drawn.silhouette & ~holes
+    mask = past_margin(solid)
+    coverage, colour = unmix(
+        rgb, page.paper.rgb, solid, mask, page.delta > page.ink_delta, drawn.sealed, page.delta, page.ink_delta,
+        page.paper_delta,
+    )
+    holes = holes & ~mask
+    return Foreground(
+        mask=mask, coverage=coverage, colour=colour, paper=page.paper.rgb, holes=holes, n_holes=_count(holes),
+        warnings=drawn.warnings,
+    )
+
+
+class _Drawn(NamedTuple):
+    """What the strokes sealed at one radius make of a drawing (segment_foreground's first part)."""
+
+    sealed: np.ndarray  # (H, W) bool ink with its gaps closed
+    silhouette: np.ndarray  # (H, W) bool the character, insides filled, before its holes
+    near: np.ndarray  # (H, W) bool within each bone's wall reach
+    reach: np.ndarray  # (B,) float64 each bone's wall reach, pixels
+    warnings: list[str]
+
+
+def _silhouette(page: Page, pose: np.ndarray, skeleton: Skeleton, touch: np.ndarray, points: np.ndarray,
+                r: int) -> _Drawn:
+    """The silhouette of a read page (read_page) with its strokes' gaps sealed by a disc of radius r px; touch:
+    (H, W) bool the bones' thin capsules, points: bone_samples' points."""
+    shape = page.delta.shape[:2]
+    sealed = closing(page.smooth_delta > page.ink_delta, r)
     filled = fill_insides(sealed, points)
     broken, n_broken = enclose_broken(sealed, filled, points, BROKEN_SCALE * r)
     silhouette, warnings = bone_touched(filled | broken, touch)
@@ -301,17 +325,4 @@ def _segment(rgb: np.ndarray, page: Page, pose: np.ndarray, skeleton: Skeleton, 
         silhouette = silhouette | strokes
         warnings.append(f"kept {kept} stroke(s) that no bone touches but that lie within a body's reach "
                         "of one (an outline drawn in separate strokes); check the foreground preview")
-    crossed = bone_capsules(shape, pose, skeleton, CROSS_PX)
-    holes = find_holes(silhouette, sealed, crossed, near, points, reach[owner], min_radius=r, grazed=touch)
-    solid = silhouette & ~holes
-
-    mask = past_margin(solid)
-    coverage, colour = unmix(
-        rgb, page.paper.rgb, solid, mask, page.delta > page.ink_delta, sealed, page.delta, page.ink_delta,
-        page.paper_delta,
-    )
-    holes = holes & ~mask
-    return Foreground(
-        mask=mask, coverage=coverage, colour=colour, paper=page.paper.rgb, holes=holes, n_holes=_count(holes),
-        warnings=warnings,
-    )
+    return _Drawn(sealed, silhouette, near, reach, warnings)

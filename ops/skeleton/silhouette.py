@@ -14,7 +14,8 @@ import cv2
 import numpy as np
 from scipy import ndimage
 
-from ops.segmentation.foreground import box_of, close_radius, closing, is_cutout, read_page
+from ops.geometry.polygon import box_size
+from ops.segmentation.foreground import close_radius, closing, is_cutout, read_page
 from ops.shotio.image_io import to_rgba
 
 PIECE_SHARE = 0.04  # a component of at least this share of the largest one's area may be part of the character
@@ -54,7 +55,7 @@ def find_silhouette(drawing: np.ndarray) -> Silhouette:
         ink = page.smooth_delta > page.ink_delta
         r = close_radius((h, w))
         mask, warnings = _main_shape(closing(ink, r))
-        own = close_radius(box_of(mask))  # gaps sealed by the character's size, not its page's
+        own = close_radius(box_size(mask))  # gaps sealed by the character's size, not its page's
         if own < r:
             mask, warnings = _main_shape(closing(ink, own))
     return Silhouette(mask=mask, ink=ink & mask, warnings=warnings)
