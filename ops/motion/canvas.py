@@ -10,7 +10,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from ops.geometry.polygon import project_to_segment
+from ops.segmentation.bones import moved_with_bones, segment_distance
 from ops.types import Skeleton
 
 MARGIN_PX = 8  # room kept between the carried outline and the canvas edge
@@ -29,17 +29,9 @@ def carried_with_bones(points: np.ndarray, pose: np.ndarray, poses: np.ndarray, 
     bone to each of the (F, J, >=2) poses: it keeps its fraction along the bone and its offset across it, turned
     as the bone turns (a bone that changes length stretches the fraction, not the offset)."""
     ends = pose[:, :2].astype(np.float64)[skeleton.bones]  # (B, 2, 2)
-    fracs, dists = zip(*(project_to_segment(points, a, b) for a, b in ends))
-    owner = np.argmin(np.stack(dists), axis=0)  # (n,)
-    t = np.stack(fracs)[owner, np.arange(len(points))]
-    a, d = ends[owner, 0], ends[owner, 1] - ends[owner, 0]
-    off = points - (a + t[:, None] * d)
+    owner = np.argmin(np.stack([segment_distance(points, a, b) for a, b in ends]), axis=0)  # (n,)
     there = np.asarray(poses, np.float64)[:, :, :2][:, skeleton.bones]  # (F, B, 2, 2)
-    a2, d2 = there[:, owner, 0], there[:, owner, 1] - there[:, owner, 0]
-    turn = np.arctan2(d2[..., 1], d2[..., 0]) - np.arctan2(d[:, 1], d[:, 0])  # (F, n); a point bone turns by 0
-    c, s = np.cos(turn), np.sin(turn)
-    rotated = np.stack([c * off[:, 0] - s * off[:, 1], s * off[:, 0] + c * off[:, 1]], axis=-1)
-    return a2 + t[None, :, None] * d2 + rotated
+    return moved_with_bones(points, ends[owner], there[:, owner])
 
 
 def padding_for(points: np.ndarray, size: tuple[int, int], margin: float = MARGIN_PX,

@@ -14,6 +14,21 @@ def segment_distance(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.nda
     return project_to_segment(points, a, b)[1]
 
 
+def moved_with_bones(points: np.ndarray, bones: np.ndarray, bones_there: np.ndarray) -> np.ndarray:
+    """(..., n, 2) pixels: (n, 2) points each moved rigidly with its (n, 2, 2) bone (parent end, child end) to that
+    bone's (..., n, 2, 2) place: a point keeps its fraction along the bone and its offset across it, turned as the
+    bone turns (a bone that changes length stretches the fraction, not the offset; a bone of no length turns by 0)."""
+    p = np.asarray(points, np.float64)
+    a, d = bones[:, 0], bones[:, 1] - bones[:, 0]
+    t = np.clip(np.einsum("ij,ij->i", p - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-12), 0.0, 1.0)
+    off = p - (a + t[:, None] * d)
+    a2, d2 = bones_there[..., 0, :], bones_there[..., 1, :] - bones_there[..., 0, :]
+    turn = np.arctan2(d2[..., 1], d2[..., 0]) - np.arctan2(d[:, 1], d[:, 0])
+    c, s = np.cos(turn), np.sin(turn)
+    rotated = np.stack([c * off[:, 0] - s * off[:, 1], s * off[:, 0] + c * off[:, 1]], axis=-1)
+    return a2 + t[:, None] * d2 + rotated
+
+
 def joined_bones(pose: np.ndarray, skeleton: Skeleton, tol: float = 1.0) -> np.ndarray:
     """(B, B) bool: bones that share a joint, or meet at the two ends of a bone shorter than `tol` px at the
     (J, >=2) pose: AnimatedDrawings' root - hip has no length, so the pelvis (from root) and the spine (from hip)

@@ -17,7 +17,7 @@ from skimage.graph import MCP_Geometric
 from skimage.morphology import skeletonize
 
 from ops.geometry.polygon import densify, project_to_polyline
-from ops.segmentation.bones import bone_radii, segment_distance
+from ops.segmentation.bones import bone_radii, moved_with_bones, segment_distance
 from ops.segmentation.contacts import MIN_CONTACT_PX, longest_path, scale_of, scale_of_box
 from ops.types import Skeleton
 
@@ -271,14 +271,8 @@ def junction_slits(boundaries: list[np.ndarray], junctions: list[np.ndarray], fr
 def _moved_with_bone(p: np.ndarray, bone: np.ndarray, bone_there: np.ndarray) -> np.ndarray:
     """(2,) point p moved rigidly with a bone from (2, 2) ends `bone` to `bone_there` (its length may change:
     the point keeps its fraction along the bone and its offset across it)."""
-    a, b = bone
-    a2, b2 = bone_there
-    d, d2 = b - a, b2 - a2
-    t = float(np.clip(np.dot(p - a, d) / max(float(np.dot(d, d)), 1e-12), 0.0, 1.0))
-    off = p - (a + t * d)
-    turn = np.arctan2(d2[1], d2[0]) - np.arctan2(d[1], d[0])
-    c, s = np.cos(turn), np.sin(turn)
-    return a2 + t * d2 + np.array([c * off[0] - s * off[1], s * off[0] + c * off[1]])
+    return moved_with_bones(np.asarray(p, np.float64)[None], np.asarray(bone, np.float64)[None],
+                            np.asarray(bone_there, np.float64)[None])[0]
 
 
 def _fill(loops: list[np.ndarray], shape: tuple[int, int]) -> np.ndarray:
