@@ -8,7 +8,7 @@ and `char_joint_bvh_joints_mapping`.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -153,6 +153,37 @@ class RetargetConfig:
         out += [("char_joint_bvh_joints_mapping", c) for c in self.mapping]
         out += [(f"char_runtime_checks[{i}]", j) for i, c in enumerate(self.checks) for j in c[1:]]
         return out
+
+
+def numbered_copies(config: RetargetConfig, joints: tuple[str, ...]) -> tuple[RetargetConfig, list[str]]:
+    """The config with each character joint it names that the skeleton lacks, but whose numbered copies
+    (`right_shoulder1`, `right_shoulder2`, ...: the name and digits) the skeleton has, replaced by those copies:
+    every copy is mapped, grouped and checked as the joint is (so three right arms move as one, the way
+    AnimatedDrawings' own six-armed config drives them). The leg chains that scale the clip take the first copy
+    only: they measure one leg. -> (config, one line per joint replaced, to say so)."""
+    copies = {}
+    for _, name in config.char_joints():
+        if name not in joints and name not in copies:
+            found = sorted((j for j in joints if j.startswith(name) and j[len(name):].isdigit()),
+                           key=lambda j: int(j[len(name):]))
+            if found:
+                copies[name] = tuple(found)
+    if not copies:
+        return config, []
+
+    def each(names):
+        return tuple(c for n in names for c in copies.get(n, (n,)))
+
+    def first(names):
+        return tuple(copies[n][0] if n in copies else n for n in names)
+
+    checks = tuple((above, t, *first((j1, j2))) for above, target, j1, j2 in config.checks for t in each((target,)))
+    mapping = {c: bones for n, bones in config.mapping.items() for c in each((n,))}
+    numbered = replace(config, depth_groups=tuple(replace(g, char_joints=each(g.char_joints)) for g in config.depth_groups),
+                       root_char_chains=tuple(first(c) for c in config.root_char_chains), mapping=mapping,
+                       checks=checks)
+    return numbered, [f"{Path(config.file).name}: {n} drives its numbered copies {', '.join(c)}"
+                      for n, c in copies.items()]
 
 
 def _names(value, file: Path, field: str) -> tuple[str, ...]:

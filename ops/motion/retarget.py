@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ops.errors import ShotError
-from ops.motion.animated_drawings import RetargetConfig
+from ops.motion.animated_drawings import RetargetConfig, numbered_copies
 from ops.motion.bvh import BVH, base_name, forward_kinematics
 from ops.motion.clip import Clip
 from ops.motion.fit import parents_first
@@ -40,8 +40,8 @@ def check_names(bvh: BVH, bvh_file: str | Path, config: RetargetConfig, joints: 
     for field, name in config.char_joints():
         if name not in joints:
             raise ShotError(config.file, field, f"names joint {name!r}, which the shot's skeleton lacks",
-                            f"map only the skeleton's joints ({', '.join(joints[:8])}, ...) or start the shot "
-                            "with --skeleton humanoid")
+                            f"give a config written for this skeleton, which maps its joints "
+                            f"({', '.join(joints[:8])}, ...), or start the shot with --skeleton humanoid")
 
 
 def _pairs(bvh: BVH, names: list[str]) -> tuple[int, int] | None:
@@ -131,7 +131,9 @@ def _unwrapped_angles(screen: np.ndarray) -> np.ndarray:
 
 def retarget(bvh: BVH, bvh_file: str | Path, config: RetargetConfig, frames: np.ndarray, joints: tuple[str, ...],
              parents: np.ndarray, key_pose: np.ndarray) -> Clip:
-    """The clip's selected frames (F,) as a Clip on the skeleton; key_pose (J, 2+) pixels gives the leg scale."""
+    """The clip's selected frames (F,) as a Clip on the skeleton; key_pose (J, 2+) pixels gives the leg scale.
+    A joint the config names and the skeleton has only numbered copies of drives the copies (numbered_copies)."""
+    config, notes = numbered_copies(config, joints)
     check_names(bvh, bvh_file, config, joints)
     P = forward_kinematics(bvh, frames)
     F, U, R = body_axes(P, bvh, config)
@@ -156,6 +158,7 @@ def retarget(bvh: BVH, bvh_file: str | Path, config: RetargetConfig, frames: np.
     scale = char_len / bvh_len  # pixels per BVH unit
 
     mapping, warnings = runtime_checks(config.checks, joints, key, config.mapping)
+    warnings = notes + warnings
     angles = {}
     for c, (prox, dist) in mapping.items():
         plane = plane_of.get(base_name(dist))

@@ -173,3 +173,38 @@ def test_bad_projection_method_is_named(tmp_path):
     with pytest.raises(ShotError) as e:
         read_retarget(f)
     assert e.value.field == "bvh_projection_bodypart_groups[2].method"
+
+
+def test_numbered_copies_of_a_joint_each_move_as_the_joint_does(config):
+    """A six-armed character's right_shoulder1..2 (AnimatedDrawings' char5): a config for one arm drives each copy
+    as it drives the arm, scales the clip by one leg, and says so."""
+    arm = ("right_shoulder", "right_elbow", "right_hand")
+    J = list(HUMANOID.joints)
+    joints = tuple(f"{n}1" if n in arm else n for n in J) + tuple(f"{n}2" for n in arm)
+    parents = list(PARENTS) + [int(PARENTS[J.index("right_shoulder")])] + [len(J) + i for i in range(2)]
+    key = np.vstack([KEY, KEY[[J.index(n) for n in arm]] + [0.0, 20.0, 0.0]])
+    rots = [{"RightForeArm": (0, 20.0 * f, 30.0 * f), "RightArm": (0, 0, -15.0 * f)} for f in range(4)]
+    bvh = parse_bvh_text(bvh_text(rots, [(0.0, 18.0, 0.0), (-2.0, 18.0, 0.0), (-2.0, 19.0, 0.0), (0.0, 18.0, 0.0)]))
+    one = retarget(bvh, "clip.bvh", config, np.arange(4), HUMANOID.joints, PARENTS, KEY)
+    six = retarget(bvh, "clip.bvh", config, np.arange(4), joints, np.asarray(parents), key)
+    for n in ("right_elbow", "right_hand"):
+        for copy in (f"{n}1", f"{n}2"):
+            assert np.array_equal(six.angles[joints.index(copy)], one.angles[J.index(n)]), copy
+    for n in arm:
+        assert np.array_equal(six.depth[:, joints.index(f"{n}2")], one.depth[:, J.index(n)]), n
+    assert np.array_equal(six.root, one.root)  # the leg chains are unchanged: the same scale
+    assert [w for w in six.warnings if "numbered copies" in w] == [
+        f"retarget.yaml: {n} drives its numbered copies {n}1, {n}2" for n in ("right_shoulder", "right_elbow", "right_hand")]
+
+
+def test_numbered_copies_of_a_leg_scale_the_clip_by_the_first(config):
+    """Numbered legs: the scale is one leg's (the first copy's), not the sum over copies."""
+    leg = ("right_hip", "right_knee", "right_foot")
+    J = list(HUMANOID.joints)
+    joints = tuple(f"{n}1" if n in leg else n for n in J) + tuple(f"{n}2" for n in leg)
+    parents = list(PARENTS) + [int(PARENTS[J.index("right_hip")])] + [len(J) + i for i in range(2)]
+    key = np.vstack([KEY, KEY[[J.index(n) for n in leg]] * [1.0, 2.0, 1.0]])  # the second leg twice as long
+    bvh = parse_bvh_text(bvh_text([{}] * 2, [(0.0, 18.0, 0.0), (-3.0, 18.0, 0.0)]))
+    one = retarget(bvh, "clip.bvh", config, np.arange(2), HUMANOID.joints, PARENTS, KEY)
+    legs = retarget(bvh, "clip.bvh", config, np.arange(2), joints, np.asarray(parents), key)
+    assert np.allclose(legs.root, one.root, atol=1e-12)
