@@ -28,16 +28,10 @@ from ops.segmentation.junction_infer import (  # noqa: F401  (re-exported for tr
     WIDTHS,
     check_weights,
 )
+from ops.segmentation.occlusion_net import conv_bn_relu as _conv
 from ops.segmentation.occlusion_net import load_state, save_weights  # noqa: F401  (save_weights: for training)
 
 HEAT_PRIOR = 1e-3  # the heat logit's initial bias: about one pixel in a thousand is a junction
-
-
-def _conv(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int = 1) -> nn.Sequential:
-    """Conv -> BatchNorm -> ReLU, 'same' padding for stride 1."""
-    pad = dilation * (k - 1) // 2 if stride == 1 else (k - 1) // 2
-    return nn.Sequential(nn.Conv2d(cin, cout, k, stride, pad, dilation=dilation, bias=False), nn.BatchNorm2d(cout),
-                         nn.ReLU(inplace=True))
 
 
 class JunctionUNet(nn.Module):

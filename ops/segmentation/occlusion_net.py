@@ -33,7 +33,7 @@ from ops.segmentation.occlusion_infer import (  # noqa: F401  (re-exported for t
 from ops.shotio.npz import read_npz
 
 
-def _conv(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int = 1) -> nn.Sequential:
+def conv_bn_relu(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int = 1) -> nn.Sequential:
     """Conv -> BatchNorm -> ReLU, 'same' padding for stride 1."""
     pad = dilation * (k - 1) // 2 if stride == 1 else (k - 1) // 2
     return nn.Sequential(nn.Conv2d(cin, cout, k, stride, pad, dilation=dilation, bias=False), nn.BatchNorm2d(cout),
@@ -46,14 +46,14 @@ class OcclusionUNet(nn.Module):
     def __init__(self, widths: tuple[int, int, int, int] = WIDTHS):
         super().__init__()
         w1, w2, w3, w4 = widths
-        self.e1 = nn.Sequential(_conv(IN_CHANNELS, w1, 4, 2), _conv(w1, w1))
-        self.e2 = nn.Sequential(_conv(w1, w2, 3, 2), _conv(w2, w2))
-        self.e3 = nn.Sequential(_conv(w2, w3, 3, 2), _conv(w3, w3))
+        self.e1 = nn.Sequential(conv_bn_relu(IN_CHANNELS, w1, 4, 2), conv_bn_relu(w1, w1))
+        self.e2 = nn.Sequential(conv_bn_relu(w1, w2, 3, 2), conv_bn_relu(w2, w2))
+        self.e3 = nn.Sequential(conv_bn_relu(w2, w3, 3, 2), conv_bn_relu(w3, w3))
         # dilated convolutions at 1/16 see a round belly whole
-        self.e4 = nn.Sequential(_conv(w3, w4, 3, 2), _conv(w4, w4, dilation=2), _conv(w4, w4, dilation=4))
-        self.d3 = _conv(w4 + w3, w3)
-        self.d2 = _conv(w3 + w2, w2)
-        self.d1 = _conv(w2 + w1, HEAD_WIDTH)
+        self.e4 = nn.Sequential(conv_bn_relu(w3, w4, 3, 2), conv_bn_relu(w4, w4, dilation=2), conv_bn_relu(w4, w4, dilation=4))
+        self.d3 = conv_bn_relu(w4 + w3, w3)
+        self.d2 = conv_bn_relu(w3 + w2, w2)
+        self.d1 = conv_bn_relu(w2 + w1, HEAD_WIDTH)
         self.head = nn.Sequential(nn.Conv2d(HEAD_WIDTH + IN_CHANNELS, 16, 1), nn.ReLU(inplace=True),
                                   nn.Conv2d(16, 1, 3, 1, 1))
 
