@@ -96,6 +96,43 @@ def test_animated_drawings_character_driven_by_a_clip_starts_at_its_own_pose(tmp
     assert np.linalg.norm(np.subtract(data["poses"][-1]["joints"][hand][:2], locs[hand])) > 5  # the clip moves it
 
 
+def test_a_character_with_numbered_arms_moves_each_as_the_config_moves_the_arm(tmp_path, character, clip):
+    """AnimatedDrawings' six-armed char5 names its arms right_shoulder1, right_shoulder2, ...: a humanoid config
+    drives each copy, which keeps its own drawn direction and turns as the arm does; the command says so."""
+    import yaml
+
+    cfg, _ = character
+    data = yaml.safe_load(cfg.read_text())
+    arm = ("right_shoulder", "right_elbow", "right_hand")
+    rows = [{**r, "name": f"{r['name']}1" if r["name"] in arm else r["name"],
+             "parent": f"{r['parent']}1" if r["parent"] in arm else r["parent"]} for r in data["skeleton"]]
+    by_name = {r["name"]: r for r in rows}
+    for n in arm:  # a second right arm, drawn 10 px lower and pointing 20 degrees further down
+        first = by_name[f"{n}1"]
+        rows.append({"name": f"{n}2", "parent": f"{first['parent'][:-1]}2" if first["parent"].endswith("1")
+                     else first["parent"], "loc": [first["loc"][0], first["loc"][1] + 10]})
+    c, s = np.cos(np.radians(20)), np.sin(np.radians(20))
+    root = np.array(by_name["right_shoulder1"]["loc"], float) + [0, 10]
+    for r in rows[-2:]:
+        d = np.array(r["loc"], float) - root
+        r["loc"] = [int(round(v)) for v in root + [c * d[0] - s * d[1], s * d[0] + c * d[1]]]
+    cfg.write_text(yaml.safe_dump({**data, "skeleton": rows}))
+    lines = []
+    starting.new_from_animated_drawings(tmp_path / "six", cfg, clip[0], clip[1], say=lines.append)
+    shot = json.loads((tmp_path / "six" / "shot.json").read_text())
+    names = shot["skeleton"]["joints"]
+    first, last = (np.array(shot["poses"][i]["joints"])[:, :2] for i in (0, -1))
+
+    def turn(elbow, hand):
+        a = [np.arctan2(*(p[names.index(hand)] - p[names.index(elbow)])[::-1]) for p in (first, last)]
+        return (a[1] - a[0] + np.pi) % (2 * np.pi) - np.pi
+
+    assert abs(turn("right_elbow1", "right_hand1")) > 0.3  # the clip lifts the forearm
+    # the same turn, to the poses' written precision (a thousandth of a pixel over a forearm of some 20 px)
+    assert turn("right_elbow2", "right_hand2") == pytest.approx(turn("right_elbow1", "right_hand1"), abs=1e-4)
+    assert any("right_hand drives its numbered copies right_hand1, right_hand2" in x for x in lines)
+
+
 def test_animated_drawings_character_without_a_clip_is_its_drawing(tmp_path, character):
     cfg, locs = character
     starting.new_from_animated_drawings(tmp_path / "ad", cfg, say=QUIET)
