@@ -40,8 +40,9 @@ def check_names(bvh: BVH, bvh_file: str | Path, config: RetargetConfig, joints: 
     for field, name in config.char_joints():
         if name not in joints:
             raise ShotError(config.file, field, f"names joint {name!r}, which the shot's skeleton lacks",
-                            f"give a config written for this skeleton, which maps its joints "
-                            f"({', '.join(joints[:8])}, ...), or start the shot with --skeleton humanoid")
+                            f"give a config that maps this skeleton's joints ({', '.join(joints[:8])}, ...); "
+                            "AnimatedDrawings' configs map its humanoid rig, which a shot started from drawings "
+                            "gets with --skeleton humanoid")
 
 
 def _pairs(bvh: BVH, names: list[str]) -> tuple[int, int] | None:
