@@ -55,7 +55,7 @@ from benchmarks.puppet import (  # noqa: E402
     skeleton_bones,
 )  # noqa: E402
 from ops.errors import ShotError  # noqa: E402
-from ops.motion.animated_drawings import read_retarget  # noqa: E402
+from ops.motion.animated_drawings import numbered_copies, read_retarget  # noqa: E402
 from ops.motion.bvh import BVH, frame_slice, parse_bvh  # noqa: E402
 from ops.motion.fit import fit_clip  # noqa: E402
 from ops.motion.retarget import check_names, retarget  # noqa: E402
@@ -86,6 +86,11 @@ PLAN = (("char1", "dab", "plain"), ("char1", "jumping_jacks", "plain"), ("char2"
 HELDOUT_PLAN = (("char1", "wave_hello", "plain"), ("char1", "jumping", "plain"), ("char2", "jumping_jacks", "plain"),
                 ("char3", "wave_hello", "plain"), ("char3", "jumping", "plain"), ("char4", "dab", "plain"),
                 ("char4", "jumping_jacks", "plain"), ("char1", "wave_hello", "redrawn"))
+
+# A character neither plan holds, never tuned on: the six-armed char5 (its numbered arms driven as the humanoid's,
+# ops.motion.animated_drawings.numbered_copies), whose arms overlap one another as well as the body
+SIX_ARMS_PLAN = (("char5", "dab", "plain"), ("char5", "wave_hello", "plain"), ("char5", "jumping_jacks", "plain"),
+                 ("char5", "jumping", "plain"))
 
 LIMBS = (("right_elbow", "right_arm"), ("right_hand", "right_arm"), ("left_elbow", "left_arm"),
          ("left_hand", "left_arm"), ("right_knee", "right_leg"), ("right_foot", "right_leg"),
@@ -145,7 +150,7 @@ def clip_motion(ch: Character, bvh: BVH, bvh_file: Path, configs: list[Path]) ->
     retargeted onto the character by the config written for its skeleton and fitted with the drawing as its
     first frame, as `inbetween motion --bvh CLIP --retarget CFG` does. ShotError when no config drives it."""
     for cfg_file in configs:
-        config = read_retarget(cfg_file)
+        config = numbered_copies(read_retarget(cfg_file), ch.joints)[0]  # as retarget reads it
         try:
             check_names(bvh, bvh_file, config, ch.joints)
         except ShotError:
@@ -245,8 +250,9 @@ class Filmed:
 
 
 def limb(name: str) -> str:
-    """The limb a part (named by its distal joint) belongs to: right_arm, left_leg, head ..., else body."""
-    return next((group for joint, group in LIMBS if joint == name), "body")
+    """The limb a part (named by its distal joint) belongs to: right_arm, left_leg, head ..., else body (a numbered
+    copy, char5's right_elbow2, belongs to the limb it copies)."""
+    return next((group for joint, group in LIMBS if joint == name.rstrip("0123456789")), "body")
 
 
 def motion_box(ch: Character, poses: np.ndarray, window: Window) -> np.ndarray:
@@ -448,8 +454,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("realdev", type=Path, help="folder of AnimatedDrawings' characters and bvh/ (see above)")
     ap.add_argument("out", type=Path, help="folder to write the shots into (one sub-folder each)")
     ap.add_argument("--only", nargs="*", default=None, help="plan entries to make, as charN:clip[:redrawn]")
-    ap.add_argument("--plan", choices=("dev", "heldout"), default="dev",
-                    help="dev: the development set (rdNN_...); heldout: the clips it leaves out (rhNN_...), never tuned on")
+    ap.add_argument("--plan", choices=("dev", "heldout", "six-arms"), default="dev",
+                    help="dev: the development set (rdNN_...); heldout: the clips it leaves out (rhNN_...), never tuned "
+                         "on; six-arms: char5, whom neither holds (rxNN_...), never tuned on")
     args = ap.parse_args(argv)
     base = characters_dir(args.realdev)
     configs = sorted((base / "bvh").glob("*.yaml"))
@@ -457,13 +464,14 @@ def main(argv: list[str] | None = None) -> int:
     chars = {d.name: read_character_folder(d) for d in sorted(base.glob("char*")) if (d / "char_cfg.yaml").is_file()}
     skipped = {}
     for name, ch in chars.items():  # which characters the configs can drive at all
-        lacks = [sorted({j for _, j in read_retarget(c).char_joints()} - set(ch.joints)) for c in configs]
+        lacks = [sorted({j for _, j in numbered_copies(read_retarget(c), ch.joints)[0].char_joints()} - set(ch.joints))
+                 for c in configs]
         if all(lacks):
             skipped[name] = (f"no retarget config drives its skeleton (it lacks {', '.join(min(lacks, key=len)[:3])} "
                              "...): not a humanoid")
             print(f"{name}: skipped: {skipped[name]}")
     records, cache = [], {}
-    plan, prefix = (PLAN, "rd") if args.plan == "dev" else (HELDOUT_PLAN, "rh")
+    plan, prefix = {"dev": (PLAN, "rd"), "heldout": (HELDOUT_PLAN, "rh"), "six-arms": (SIX_ARMS_PLAN, "rx")}[args.plan]
     for index, (cname, clip, variant) in enumerate(plan):
         tag = f"{cname}:{clip}" + (":redrawn" if variant == "redrawn" else "")
         if args.only and tag not in args.only:

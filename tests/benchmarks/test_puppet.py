@@ -186,3 +186,12 @@ def test_the_held_out_plan_shares_no_character_and_clip_with_the_development_pla
     for c, clip, variant in realdev_shots.HELDOUT_PLAN:
         if variant == "redrawn":
             assert (c, clip, "plain") in realdev_shots.HELDOUT_PLAN
+
+
+def test_the_six_armed_plan_is_a_character_neither_other_plan_holds():
+    """--plan six-arms films char5 alone, which the development and held-out plans never show; its numbered arms
+    name the limbs they copy."""
+    others = {c for plan in (realdev_shots.PLAN, realdev_shots.HELDOUT_PLAN) for c, _, _ in plan}
+    assert {c for c, _, _ in realdev_shots.SIX_ARMS_PLAN} == {"char5"} and "char5" not in others
+    assert realdev_shots.limb("right_elbow2") == realdev_shots.limb("right_elbow") == "right_arm"
+    assert realdev_shots.limb("left_hand3") == "left_arm" and realdev_shots.limb("torso") == "body"
