@@ -15,7 +15,7 @@ from ops.blending.key_fallback import interpolate_keys
 from ops.blending.path import diagonal_path, optimal_path
 from ops.blending.path_cells import path_matrix
 from ops.blending.quality import interpolation_quality, quality_inputs
-from ops.evaluation.metrics import chamfer, psnr, ssim
+from ops.evaluation.metrics import chamfer, ink_threshold, psnr, ssim
 from ops.evaluation.plate import over, paper_plate
 from ops.shotio.image_io import to_rgba
 from ops.types import BlendPaths, DeformedSequence, ImageMatrix
@@ -60,11 +60,12 @@ def compare(ground_truth: np.ndarray, methods: dict[str, np.ndarray], times: np.
     frames = np.arange(G) if frames is None else np.asarray(frames)
     interior = (np.arange(G) > 0) & (np.arange(G) < G - 1) if interior is None else np.asarray(interior)
     rows = []
+    ink = ink_threshold(ground_truth[0])  # one ink level for the shot: its first frame's (the first key)
     for name, got in methods.items():
         for i in range(G):
             rows.append({"method": name, "frame": int(frames[i]), "t": float(times[i]), "interior": bool(interior[i]),
                          "psnr": psnr(got[i], ground_truth[i]), "ssim": ssim(got[i], ground_truth[i]),
-                         "chamfer": chamfer(got[i], ground_truth[i])})
+                         "chamfer": chamfer(got[i], ground_truth[i], ink)})
     return pd.DataFrame(rows)
 
 
@@ -80,7 +81,7 @@ def lane_agreement(frame: np.ndarray, drawing: np.ndarray, coverage: np.ndarray,
     plate = paper_plate([drawing], [coverage], [paper])
     got = over(np.asarray(frame)[None], plate)[0]
     want = to_rgba(drawing)[..., :3]
-    return psnr(got, want), chamfer(got, want)
+    return psnr(got, want), chamfer(got, want, ink_threshold(want))
 
 
 def summarize(table: pd.DataFrame) -> pd.DataFrame:

@@ -57,9 +57,25 @@ def ssim(a: np.ndarray, b: np.ndarray) -> float:
     return float(structural_similarity(la, lb, data_range=1.0))
 
 
-def ink_mask(image: np.ndarray) -> np.ndarray:
-    """(H, W, 3|4) or (H, W) image -> (H, W) bool ink = luminance < 0.5 over white."""
-    return luminance(image) < 0.5
+INK_LUMINANCE = 0.5  # ink is darker than this over white, unless the drawing has (almost) none that dark
+MIN_INK_SHARE = 1e-3  # a reference with less of its pixels that dark is drawn in pale lines (ink_threshold)
+
+
+def ink_threshold(reference: np.ndarray) -> float:
+    """The luminance under which a pixel is ink when comparing with `reference` (an image, as ink_mask takes):
+    INK_LUMINANCE, unless under MIN_INK_SHARE of the reference's pixels are that dark (pale blue lines, crayon:
+    the 0.5 rule finds no ink there, and Chamfer would compare an empty set with a few specks); then half way
+    between its darkest 1 % and its median (the paper)."""
+    L = luminance(reference)
+    if (L < INK_LUMINANCE).mean() >= MIN_INK_SHARE:
+        return INK_LUMINANCE
+    dark, paper = np.percentile(L, [1, 50])
+    return float((dark + paper) / 2)
+
+
+def ink_mask(image: np.ndarray, threshold: float = INK_LUMINANCE) -> np.ndarray:
+    """(H, W, 3|4) or (H, W) image -> (H, W) bool ink = luminance < threshold over white."""
+    return luminance(image) < threshold
 
 
 def _mean_distance_to(src: np.ndarray, dst: np.ndarray) -> float:
@@ -68,14 +84,15 @@ def _mean_distance_to(src: np.ndarray, dst: np.ndarray) -> float:
     return float(dist[src].mean())
 
 
-def chamfer(a: np.ndarray, b: np.ndarray) -> float:
-    """a, b: images or (H, W) bool ink masks -> symmetric mean ink distance / diagonal * 1e5.
+def chamfer(a: np.ndarray, b: np.ndarray, threshold: float = INK_LUMINANCE) -> float:
+    """a, b: images or (H, W) bool ink masks -> symmetric mean ink distance / diagonal * 1e5; images' ink is
+    what is darker than `threshold` (ink_threshold of the reference, for pale drawings).
 
     Empty vs empty is 0 (nothing differs); exactly one empty is inf (no
     correspondence exists, so no finite distance is meaningful).
     """
-    ma = a if (a.dtype == bool and a.ndim == 2) else ink_mask(a)
-    mb = b if (b.dtype == bool and b.ndim == 2) else ink_mask(b)
+    ma = a if (a.dtype == bool and a.ndim == 2) else ink_mask(a, threshold)
+    mb = b if (b.dtype == bool and b.ndim == 2) else ink_mask(b, threshold)
     if ma.shape != mb.shape:
         raise ValueError(f"chamfer needs equal shapes, got {ma.shape} and {mb.shape}")
     na, nb = bool(ma.any()), bool(mb.any())

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from ops.evaluation.metrics import chamfer, ink_mask, luminance, psnr, ssim
+from ops.evaluation.metrics import chamfer, ink_mask, ink_threshold, luminance, psnr, ssim
 
 
 def _drawing(H=64, W=80, seed=0):
@@ -52,6 +52,27 @@ def test_chamfer_empty_cases():
     e = np.zeros((10, 10), bool); f = e.copy(); f[3, 3] = True
     assert chamfer(e, e) == 0.0
     assert chamfer(e, f) == np.inf and chamfer(f, e) == np.inf
+
+
+def _ring_drawing(ink: float, paper: float, shift: int = 0) -> np.ndarray:
+    """(64, 64, 3) a ring 2 px wide drawn in grey `ink` on grey `paper`, moved `shift` px right."""
+    yy, xx = np.mgrid[:64, :64]
+    r = np.hypot(yy - 32.0, xx - 30.0 - shift)
+    img = np.full((64, 64, 3), paper, np.float32)
+    img[(r > 14) & (r < 16)] = ink
+    return img
+
+
+def test_pale_lines_are_ink_for_chamfer_where_the_fixed_level_finds_none():
+    """A drawing in lines paler than 0.5 (AnimatedDrawings' char5, crayon): its Chamfer is the one the same
+    drawing in dark ink gives, not an empty set against specks; drawings with dark ink keep the 0.5 level."""
+    dark, pale = _ring_drawing(0.1, 1.0), _ring_drawing(0.75, 0.95)
+    assert ink_threshold(dark) == 0.5 and ink_threshold(pale) == pytest.approx(0.85)
+    moved_dark, moved_pale = _ring_drawing(0.1, 1.0, 3), _ring_drawing(0.75, 0.95, 3)
+    want = chamfer(moved_dark, dark)
+    assert 0 < want < np.inf
+    assert chamfer(moved_pale, pale) == 0.0  # the fixed level finds no ink in either: the move goes unseen
+    assert chamfer(moved_pale, pale, ink_threshold(pale)) == pytest.approx(want)
 
 
 def test_ink_mask_composites_over_white():
