@@ -22,8 +22,8 @@ import numpy as np
 from scipy import ndimage
 
 from ops.blending.quality import inpainted_share
-from ops.evaluation.metrics import psnr
 from ops.evaluation.plate import over
+from ops.evaluation.psnr import psnr
 from ops.segmentation.skeleton_guide import bone_distance_stack
 from ops.types import DeformedSequence, Masks, Skeleton
 from ops.warning_subject import about

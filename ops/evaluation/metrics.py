@@ -10,28 +10,11 @@ import numpy as np
 from scipy.ndimage import distance_transform_edt
 from skimage.metrics import structural_similarity
 
+from ops.evaluation.psnr import psnr  # noqa: F401  (one of this module's metrics; its own module for the lanes)
 from ops.shotio.image_io import composite_over_white
 
 LUMA = np.array([0.2126, 0.7152, 0.0722], dtype=np.float64)  # Rec. 709
 CHAMFER_SCALE = 1e5  # Chamfer is reported in units of 1e-5 image diagonals
-
-
-def psnr(a: np.ndarray, b: np.ndarray) -> float:
-    """a, b: same-shape arrays in [0, 1] -> PSNR in dB over all values (inf if identical).
-
-    RGBA inputs (H, W, 4) are composited over white first, like SSIM and Chamfer: a transparent
-    pixel is blank paper, whatever its stored colour.
-    """
-    a = np.asarray(a, dtype=np.float64)
-    b = np.asarray(b, dtype=np.float64)
-    if a.ndim == 3 and a.shape[-1] == 4:
-        a = a[..., :3] * a[..., 3:] + (1.0 - a[..., 3:])
-    if b.ndim == 3 and b.shape[-1] == 4:
-        b = b[..., :3] * b[..., 3:] + (1.0 - b[..., 3:])
-    if a.shape != b.shape:
-        raise ValueError(f"psnr needs equal shapes, got {a.shape} and {b.shape}")
-    mse = float(np.mean((a - b) ** 2))
-    return float("inf") if mse == 0.0 else float(10.0 * np.log10(1.0 / mse))
 
 
 def luminance(image: np.ndarray) -> np.ndarray:
