@@ -55,10 +55,10 @@ from benchmarks.puppet import (  # noqa: E402
     skeleton_bones,
 )  # noqa: E402
 from ops.errors import ShotError  # noqa: E402
-from ops.motion.animated_drawings import numbered_copies, read_retarget  # noqa: E402
+from ops.motion.animated_drawings import read_retarget  # noqa: E402
 from ops.motion.bvh import BVH, frame_slice, parse_bvh  # noqa: E402
 from ops.motion.fit import fit_clip  # noqa: E402
-from ops.motion.retarget import check_names, retarget  # noqa: E402
+from ops.motion.retarget import check_names, lacking, retarget  # noqa: E402
 
 FORMAT = "inbetween-shot/1"
 SIZE = 256  # output frame, px (square)
@@ -150,7 +150,7 @@ def clip_motion(ch: Character, bvh: BVH, bvh_file: Path, configs: list[Path]) ->
     retargeted onto the character by the config written for its skeleton and fitted with the drawing as its
     first frame, as `inbetween motion --bvh CLIP --retarget CFG` does. ShotError when no config drives it."""
     for cfg_file in configs:
-        config = numbered_copies(read_retarget(cfg_file), ch.joints)[0]  # as retarget reads it
+        config = read_retarget(cfg_file)
         try:
             check_names(bvh, bvh_file, config, ch.joints)
         except ShotError:
@@ -464,8 +464,7 @@ def main(argv: list[str] | None = None) -> int:
     chars = {d.name: read_character_folder(d) for d in sorted(base.glob("char*")) if (d / "char_cfg.yaml").is_file()}
     skipped = {}
     for name, ch in chars.items():  # which characters the configs can drive at all
-        lacks = [sorted({j for _, j in numbered_copies(read_retarget(c), ch.joints)[0].char_joints()} - set(ch.joints))
-                 for c in configs]
+        lacks = [sorted({j for _, j in lacking(read_retarget(c), ch.joints)}) for c in configs]
         if all(lacks):
             skipped[name] = (f"no retarget config drives its skeleton (it lacks {', '.join(min(lacks, key=len)[:3])} "
                              "...): not a humanoid")

@@ -30,19 +30,27 @@ SIDE_WORDS = (("Right", "Left"), ("right", "left"), ("RIGHT", "LEFT"))
 
 
 def check_names(bvh: BVH, bvh_file: str | Path, config: RetargetConfig, joints: tuple[str, ...]) -> None:
-    """ShotError when the config names a BVH joint the clip lacks or a character joint the skeleton lacks."""
+    """ShotError when the config names a BVH joint the clip lacks or a character joint the skeleton lacks (numbered
+    copies of a joint count as the joint: numbered_copies)."""
     have = {base_name(n) for n in bvh.names}
     for field, name in config.bvh_joints():
         if base_name(name) not in have:
             listed = ", ".join(sorted(have)[:12])
             raise ShotError(bvh_file, "HIERARCHY", f"has no joint {name!r}, which {Path(config.file).name} names in {field}",
                             f"use a retarget config written for this clip's skeleton (its joints: {listed}, ...)")
-    for field, name in config.char_joints():
-        if name not in joints:
-            raise ShotError(config.file, field, f"names joint {name!r}, which the shot's skeleton lacks",
-                            f"give a config that maps this skeleton's joints ({', '.join(joints[:8])}, ...); "
-                            "AnimatedDrawings' configs map its humanoid rig, which a shot started from drawings "
-                            "gets with --skeleton humanoid")
+    missing = lacking(config, joints)
+    if missing:
+        field, name = missing[0]
+        raise ShotError(config.file, field, f"names joint {name!r}, which the shot's skeleton lacks",
+                        f"give a config that maps this skeleton's joints ({', '.join(joints[:8])}, ...); "
+                        "AnimatedDrawings' configs map its humanoid rig, which a shot started from drawings "
+                        "gets with --skeleton humanoid")
+
+
+def lacking(config: RetargetConfig, joints: tuple[str, ...]) -> list[tuple[str, str]]:
+    """(field, joint name) of each character joint the config names that the skeleton lacks, a joint whose numbered
+    copies it has counting as present (numbered_copies)."""
+    return [(field, name) for field, name in numbered_copies(config, joints)[0].char_joints() if name not in joints]
 
 
 def _pairs(bvh: BVH, names: list[str]) -> tuple[int, int] | None:
