@@ -40,33 +40,51 @@ def conv_bn_relu(cin: int, cout: int, k: int = 3, stride: int = 1, dilation: int
                          nn.ReLU(inplace=True))
 
 
-class OcclusionUNet(nn.Module):
-    """Encoder at 1/2 .. 1/16 resolution, decoder back to 1/2, a per-pixel head at full resolution."""
+class UNetTrunk(nn.Module):
+    """The encoder at 1/2 .. 1/16 resolution and the decoder back to 1/2 that both networks share (this one and
+    ops.segmentation.junction_net's); each adds its own head at full resolution. The levels keep the names e1 ..
+    e4, d3 .. d1, which the weights files and the NumPy forward passes read."""
 
-    def __init__(self, widths: tuple[int, int, int, int] = WIDTHS):
-        super().__init__()
+    def build_trunk(self, c_in: int, widths: tuple[int, int, int, int], first_kernel: int, out_width: int) -> None:
+        """Add the levels for c_in input channels; the first halves the resolution with a first_kernel convolution,
+        the decoder ends with out_width channels at 1/2."""
         w1, w2, w3, w4 = widths
-        self.e1 = nn.Sequential(conv_bn_relu(IN_CHANNELS, w1, 4, 2), conv_bn_relu(w1, w1))
+        self.e1 = nn.Sequential(conv_bn_relu(c_in, w1, first_kernel, 2), conv_bn_relu(w1, w1))
         self.e2 = nn.Sequential(conv_bn_relu(w1, w2, 3, 2), conv_bn_relu(w2, w2))
         self.e3 = nn.Sequential(conv_bn_relu(w2, w3, 3, 2), conv_bn_relu(w3, w3))
         # dilated convolutions at 1/16 see a round belly whole
         self.e4 = nn.Sequential(conv_bn_relu(w3, w4, 3, 2), conv_bn_relu(w4, w4, dilation=2), conv_bn_relu(w4, w4, dilation=4))
         self.d3 = conv_bn_relu(w4 + w3, w3)
         self.d2 = conv_bn_relu(w3 + w2, w2)
-        self.d1 = conv_bn_relu(w2 + w1, HEAD_WIDTH)
-        self.head = nn.Sequential(nn.Conv2d(HEAD_WIDTH + IN_CHANNELS, 16, 1), nn.ReLU(inplace=True),
-                                  nn.Conv2d(16, 1, 3, 1, 1))
+        self.d1 = conv_bn_relu(w2 + w1, out_width)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
+    def trunk(self, x: torch.Tensor) -> torch.Tensor:
+        """(N, c_in, H, W) -> the decoder's (N, out_width, H, W), upsampled to the input's resolution."""
         e1 = self.e1(x)
         e2 = self.e2(e1)
         e3 = self.e3(e2)
         e4 = self.e4(e3)
-        up = lambda t, ref: F.interpolate(t, size=ref.shape[-2:], mode="bilinear", align_corners=False)  # noqa: E731
-        d3 = self.d3(torch.cat([up(e4, e3), e3], 1))
-        d2 = self.d2(torch.cat([up(d3, e2), e2], 1))
-        d1 = self.d1(torch.cat([up(d2, e1), e1], 1))
-        return self.head(torch.cat([up(d1, x), x], 1))
+        d3 = self.d3(torch.cat([_up(e4, e3), e3], 1))
+        d2 = self.d2(torch.cat([_up(d3, e2), e2], 1))
+        return _up(self.d1(torch.cat([_up(d2, e1), e1], 1)), x)
+
+
+def _up(t: torch.Tensor, ref: torch.Tensor) -> torch.Tensor:
+    """t bilinearly resized to ref's height and width."""
+    return F.interpolate(t, size=ref.shape[-2:], mode="bilinear", align_corners=False)
+
+
+class OcclusionUNet(UNetTrunk):
+    """Encoder at 1/2 .. 1/16 resolution, decoder back to 1/2, a per-pixel head at full resolution."""
+
+    def __init__(self, widths: tuple[int, int, int, int] = WIDTHS):
+        super().__init__()
+        self.build_trunk(IN_CHANNELS, widths, 4, HEAD_WIDTH)
+        self.head = nn.Sequential(nn.Conv2d(HEAD_WIDTH + IN_CHANNELS, 16, 1), nn.ReLU(inplace=True),
+                                  nn.Conv2d(16, 1, 3, 1, 1))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(torch.cat([self.trunk(x), x], 1))
 
 
 def save_weights(net: nn.Module, path: Path) -> str:
