@@ -4,13 +4,17 @@ Reproduces ops/segmentation/junction_unet.npz from the generators' train splits 
 (the outline of a part ending against the outline of a part that covers it, for bones that share no joint):
 the 2D generator (data_samples/generator/occlusion_set.py, occlusion.t_junctions) and the 3D one
 (data_samples/generator/occlusion3d.py, junctions read off its depth buffer by junctions3d.py), of the 3D one
-only the body and style families that are not held out (creature bodies and crayon drawings never appear).
+only the body and style families that are not held out (creature bodies and crayon drawings never appear),
+and plain geometric drawings (data_samples/generator/junction_primitives.py: a bar or an ellipse over a disc or a
+rectangle, texture strokes crossing on a body), which keep a longer schedule from reading every round outline of
+the generators' as a junction.
 Test splits are never read. Fixed seeds for the crops, augmentation and initialisation; torch on the CPU with a
 fixed thread count. At the end it writes the weights, patches WEIGHTS_SHA256 in junction_infer.py (so the
 stages using the network get a new code version) and prints recall and precision at 5 px on the tuning set
 (train-split samples after the trained ones: never trained on) for a sweep of thresholds.
 
-    python tools/train_junctions.py --cache CACHE_DIR [--samples 1500] [--samples3d 2000] [--steps 6000]
+    python tools/train_junctions.py --cache CACHE_DIR [--samples 1500] [--samples3d 2000] [--primitives 800] \
+        [--steps 6000]
     python tools/train_junctions.py --cache OTHER_CACHE --bvh BVH_DIR ...   # people posed by motion clips
 
 The held-out figures are benchmarks/bench_junctions.py's. Samples missing from the cache are generated first
@@ -38,6 +42,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from data_samples.generator.junction_primitives import make_primitive  # noqa: E402
 from ops.segmentation.junction_infer import (  # noqa: E402
     IN_CHANNELS,
     junction_frame,
@@ -60,6 +65,7 @@ MATCH_PX = 5.0  # the benchmark's radius (keyframe px)
 GOAL = (0.8, 0.6)  # recall and precision at MATCH_PX asked of the proposals (issue 27)
 TUNE_2D_START = 9000  # the tuning set: 2D train-split samples from here (the training reads 0 .. --samples - 1)
 TUNE_3D_START = 9000  # ... and the 3D train split's trained-on indices from index 9000
+TUNE_PRIMITIVE_START = 100_000  # ... and plain drawings from here (the training reads 0 .. --primitives - 1)
 
 
 def truth_of(sample: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -218,7 +224,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--cache", type=Path, required=True, help="sample cache (tools/occlusion_data.py)")
     ap.add_argument("--samples", type=int, default=1500, help="2D train samples 0 .. N-1")
     ap.add_argument("--samples3d", type=int, default=2000, help="3D train samples (the first N trained-on indices)")
-    ap.add_argument("--share3d", type=float, default=0.5, help="share of each batch's crops from the 3D samples")
+    ap.add_argument("--share3d", type=float, default=0.5, help="share of the generators' crops from the 3D samples")
+    ap.add_argument("--primitives", type=int, default=800, help="plain geometric drawings 0 .. N-1")
+    ap.add_argument("--share-primitives", type=float, default=0.1,
+                    help="share of each batch's crops from the plain drawings")
     ap.add_argument("--steps", type=int, default=5000, help="length of the learning-rate schedule")
     ap.add_argument("--stop-after", type=int, default=None, help="end training after this many steps")
     ap.add_argument("--batch", type=int, default=12)
@@ -244,6 +253,9 @@ def main(argv: list[str] | None = None) -> None:
     a = tune(args.out, tuning, thresholds)
     print(f"tuning: 3D train split, trained-on families, from index {TUNE_3D_START} (never trained on)")
     b = tune(args.out, tuning3d, thresholds)
+    print(f"tuning: plain drawings {TUNE_PRIMITIVE_START}-{TUNE_PRIMITIVE_START + args.tune_n - 1} (never trained "
+          "on; a check, not in the rule below)")
+    tune(args.out, [make_primitive(TUNE_PRIMITIVE_START + i) for i in range(args.tune_n)], thresholds)
     for (t, n2, p2, m2), (_, n3, p3, m3) in zip(a, b):
         rec, pre = (m2 + m3) / max(n2 + n3, 1), (m2 + m3) / max(p2 + p3, 1)
         print(f"  both, threshold {t:.3f}: recall {rec:.3f} precision {pre:.3f} recall x precision {rec * pre:.3f}")
@@ -263,11 +275,13 @@ def train(args: argparse.Namespace) -> None:
     paths3d = ensure(args.cache, "train", 0, args.samples3d, args.workers, "3d", bvh) if args.samples3d else []
     items2d = [prepare(load(p), rng) for p in paths2d]
     items3d = [prepare(load(p), rng) for p in paths3d]
-    n_true = sum(len(i["pts"]) for i in items2d + items3d)
-    print(f"{len(items2d)} 2D and {len(items3d)} 3D samples ({n_true} junctions) prepared in "
+    plain = [prepare(make_primitive(i), rng) for i in range(args.primitives)]
+    n_true = sum(len(i["pts"]) for i in items2d + items3d + plain)
+    print(f"{len(items2d)} 2D, {len(items3d)} 3D and {len(plain)} plain samples ({n_true} junctions) prepared in "
           f"{time.process_time() - c0:.0f} CPU s", flush=True)
-    pools = [(items, share) for items, share in ((items3d, args.share3d), (items2d, 1 - args.share3d))
-             if items and share > 0]
+    rest = 1 - args.share_primitives
+    pools = [(items, share) for items, share in ((items3d, args.share3d * rest), (items2d, (1 - args.share3d) * rest),
+                                                 (plain, args.share_primitives)) if items and share > 0]
     shares = np.array([share for _, share in pools]) / sum(share for _, share in pools)
     net = JunctionUNet().to(memory_format=torch.channels_last)
     opt = torch.optim.AdamW(net.parameters(), lr=args.lr, weight_decay=1e-4)
