@@ -10,12 +10,13 @@ rectangle, texture strokes crossing on a body), which keep a longer schedule fro
 the generators' as a junction.
 Test splits are never read. Fixed seeds for the crops, augmentation and initialisation; torch on the CPU with a
 fixed thread count. At the end it writes the weights, patches WEIGHTS_SHA256 in junction_infer.py (so the
-stages using the network get a new code version) and prints recall and precision at 5 px on the tuning set
-(train-split samples after the trained ones: never trained on) for a sweep of thresholds.
+stages using the network get a new code version) and prints recall and precision at 5 px on the tuning sets
+(train-split samples after the trained ones, and plain drawings after the trained ones: never trained on) for a
+sweep of thresholds.
 
-    python tools/train_junctions.py --cache CACHE_DIR [--samples 1500] [--samples3d 2000] [--primitives 800] \
-        [--steps 6000]
-    python tools/train_junctions.py --cache OTHER_CACHE --bvh BVH_DIR ...   # people posed by motion clips
+    python tools/train_junctions.py --cache CACHE_DIR --bvh BVH_DIR   # the shipped weights (docs/weights.md)
+    python tools/train_junctions.py --cache OTHER_CACHE [--samples 1500] [--samples3d 3000] [--primitives 800] \
+        [--steps 20000]   # without --bvh: people posed procedurally only; use a cache of its own
 
 The held-out figures are benchmarks/bench_junctions.py's. Samples missing from the cache are generated first
 (tools/occlusion_data.py: the same cache as the occlusion network's, whose 3D samples carry their junctions).
@@ -223,12 +224,12 @@ def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cache", type=Path, required=True, help="sample cache (tools/occlusion_data.py)")
     ap.add_argument("--samples", type=int, default=1500, help="2D train samples 0 .. N-1")
-    ap.add_argument("--samples3d", type=int, default=2000, help="3D train samples (the first N trained-on indices)")
-    ap.add_argument("--share3d", type=float, default=0.5, help="share of the generators' crops from the 3D samples")
+    ap.add_argument("--samples3d", type=int, default=3000, help="3D train samples (the first N trained-on indices)")
+    ap.add_argument("--share3d", type=float, default=0.6, help="share of the generators' crops from the 3D samples")
     ap.add_argument("--primitives", type=int, default=800, help="plain geometric drawings 0 .. N-1")
     ap.add_argument("--share-primitives", type=float, default=0.1,
                     help="share of each batch's crops from the plain drawings")
-    ap.add_argument("--steps", type=int, default=5000, help="length of the learning-rate schedule")
+    ap.add_argument("--steps", type=int, default=20000, help="length of the learning-rate schedule")
     ap.add_argument("--stop-after", type=int, default=None, help="end training after this many steps")
     ap.add_argument("--batch", type=int, default=12)
     ap.add_argument("--crop", type=int, default=96, help="training crop side, working pixels")
@@ -256,12 +257,15 @@ def main(argv: list[str] | None = None) -> None:
     print(f"tuning: plain drawings {TUNE_PRIMITIVE_START}-{TUNE_PRIMITIVE_START + args.tune_n - 1} (never trained "
           "on; a check, not in the rule below)")
     tune(args.out, [make_primitive(TUNE_PRIMITIVE_START + i) for i in range(args.tune_n)], thresholds)
+    both = []
     for (t, n2, p2, m2), (_, n3, p3, m3) in zip(a, b):
         rec, pre = (m2 + m3) / max(n2 + n3, 1), (m2 + m3) / max(p2 + p3, 1)
+        both.append((t, rec, pre))
         print(f"  both, threshold {t:.3f}: recall {rec:.3f} precision {pre:.3f} recall x precision {rec * pre:.3f}")
-    meets = [t for t, n, p, m in a if m / max(n, 1) >= GOAL[0] and m / max(p, 1) >= GOAL[1]]
-    print(f"largest threshold with recall >= {GOAL[0]} and precision >= {GOAL[1]} on the 2D tuning set: "
-          f"{max(meets) if meets else 'none'} (junction_proposals.MIN_SCORE is set by hand from this line)")
+    meets = [t for t, rec, pre in both if rec >= GOAL[0] and pre >= GOAL[1]]
+    span = f"{min(meets):.3f} to {max(meets):.3f}, the middle {meets[len(meets) // 2]:.3f}" if meets else "none"
+    print(f"thresholds with recall >= {GOAL[0]} and precision >= {GOAL[1]} on the 2D and 3D tuning sets together: "
+          f"{span} (junction_proposals.MIN_SCORE is set by hand to the middle)")
 
 
 def train(args: argparse.Namespace) -> None:

@@ -48,7 +48,7 @@ JUNCTION_EXTENT_PX = 160.0  # longer side of the joints' box at the network's sc
 MAX_ZOOM = 4.0
 WEIGHTS_PATH = Path(__file__).with_name("junction_unet.npz")
 # sha256 of WEIGHTS_PATH: a retrained network changes this module, hence the code version of the stages using it
-WEIGHTS_SHA256 = "0207b6a3fee8db8634ac4512744619177b3499149c5783e042ca0c03f4ef792a"
+WEIGHTS_SHA256 = "c2818860793c4e109b573b495701634acf626e809c4bdbeb3755131b4f9e53cf"
 
 # (name in the weights file, stride, padding, dilation) of each conv + BatchNorm + ReLU, in forward order
 ENCODER = {
