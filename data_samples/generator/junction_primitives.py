@@ -102,8 +102,11 @@ def _strokes(rng: np.random.Generator, back: np.ndarray, front: np.ndarray, size
         for _try in range(20):
             c = back.mean(0) + rng.uniform(-0.6, 0.6, 2) * size
             half = float(rng.uniform(0.2, 0.6)) * size
-            angle = (np.arctan2(*(out[-1][1] - out[-1][0])[::-1]) + np.pi / 2 + rng.uniform(-0.5, 0.5)
-                     if out and rng.random() < 0.6 else rng.uniform(0, np.pi))  # often across the last stroke
+            if out and rng.random() < 0.6:  # often across the last stroke
+                dx, dy = out[-1][1] - out[-1][0]
+                angle = np.arctan2(dy, dx) + np.pi / 2 + rng.uniform(-0.5, 0.5)
+            else:
+                angle = rng.uniform(0, np.pi)
             if out and rng.random() < 0.6:
                 c = out[-1].mean(0) + rng.uniform(-0.3, 0.3, 2) * np.linalg.norm(out[-1][1] - out[-1][0]) / 2
             d = half * np.array([np.cos(angle), np.sin(angle)])
