@@ -156,8 +156,8 @@ def make_primitive(index: int) -> dict:
             break  # clear crossings (near or grazing ones are ambiguous T's)
     strokes = _strokes(rng, back, front, size)
     joints = np.r_[hip_neck, shoulder_hand]
-    lo = np.minimum(np.r_[back, front, joints].min(0), 0) - MARGIN
-    hi = np.r_[back, front, joints].max(0) + MARGIN
+    drawn = np.r_[back, front, joints]
+    lo, hi = drawn.min(0) - MARGIN, drawn.max(0) + MARGIN
     scale = min(1.0, MAX_SIDE / float(np.max(hi - lo)))
     move = lambda q: (np.asarray(q) - lo) * scale  # noqa: E731
     back, front, joints, junctions = move(back), move(front), move(joints), move(junctions)
